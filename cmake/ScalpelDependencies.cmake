@@ -1,0 +1,26 @@
+# Every dependency is a Debian 12 package (scripts/setup.sh installs them); nothing is downloaded.
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(yaml-cpp REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(Threads REQUIRED)
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(HIDAPI REQUIRED IMPORTED_TARGET hidapi-hidraw)
+pkg_check_modules(LIBUSB REQUIRED IMPORTED_TARGET libusb-1.0)
+pkg_check_modules(GMP REQUIRED IMPORTED_TARGET gmp)
+
+# readerwriterqueue is header-only and ships no CMake package.
+find_path(READERWRITERQUEUE_INCLUDE_DIR readerwriterqueue/readerwriterqueue.h REQUIRED)
+add_library(scalpel_readerwriterqueue INTERFACE)
+target_include_directories(scalpel_readerwriterqueue SYSTEM INTERFACE ${READERWRITERQUEUE_INCLUDE_DIR})
+
+if(SCALPEL_BUILD_GUI)
+  pkg_check_modules(GLFW REQUIRED IMPORTED_TARGET glfw3)
+  find_package(OpenGL REQUIRED)
+endif()
+if(SCALPEL_BUILD_TESTS)
+  find_package(doctest REQUIRED)
+endif()
+if(SCALPEL_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

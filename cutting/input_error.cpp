@@ -1,0 +1,27 @@
+#include "cutting/input_error.hpp"
+
+namespace scalpel {
+
+namespace {
+
+// "file:line:column: field: message", leaving out the parts that are unknown.
+std::string format(const std::string& file, int line, int column, const std::string& field,
+                   const std::string& message) {
+  std::string s = file;
+  if (line > 0) s += ":" + std::to_string(line);
+  if (line > 0 && column > 0) s += ":" + std::to_string(column);
+  s += ": ";
+  if (!field.empty()) s += field + ": ";
+  return s + message;
+}
+
+}  // namespace
+
+InputError::InputError(std::string file, int line, int column, std::string field, const std::string& message)
+    : std::runtime_error(format(file, line, column, field, message)),
+      file_(std::move(file)),
+      line_(line),
+      column_(column),
+      field_(std::move(field)) {}
+
+}  // namespace scalpel

@@ -1,0 +1,44 @@
+#include "cutting/topology.hpp"
+
+#include <numeric>
+
+namespace scalpel {
+
+std::vector<BoundaryFace> boundary_faces(const TetMesh& mesh) {
+  std::vector<BoundaryFace> out;
+  for (const TetId t : mesh.tets())
+    for (int f = 0; f < 4; ++f)
+      if (mesh.neighbour(t, f).is_null()) out.push_back({t.index, f, face_vertex_indices(mesh, t.index, f)});
+  return out;
+}
+
+Components connected_components(const TetMesh& mesh) {
+  Components c;
+  c.of_tet.assign(mesh.tet_capacity(), kInvalidIndex);
+  std::vector<std::uint32_t> stack;
+  for (std::uint32_t seed = 0; seed < mesh.tet_capacity(); ++seed) {
+    if (!mesh.tet_slot_alive(seed) || c.of_tet[seed] != kInvalidIndex) continue;
+    const auto id = static_cast<std::uint32_t>(c.rest_volume.size());
+    c.rest_volume.push_back(0.0);
+    c.tet_count.push_back(0);
+    stack.push_back(seed);
+    c.of_tet[seed] = id;
+    while (!stack.empty()) {
+      const std::uint32_t t = stack.back();
+      stack.pop_back();
+      const TetId h = mesh.tet_handle(t);
+      c.rest_volume[id] += mesh.rest_volume(h);
+      ++c.tet_count[id];
+      for (int f = 0; f < 4; ++f) {
+        const TetId n = mesh.neighbour(h, f);
+        if (!n.is_null() && c.of_tet[n.index] == kInvalidIndex) {
+          c.of_tet[n.index] = id;
+          stack.push_back(n.index);
+        }
+      }
+    }
+  }
+  return c;
+}
+
+}  // namespace scalpel

@@ -1,0 +1,31 @@
+// Boundary surface and connected components of a TetMesh.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "cutting/mesh.hpp"
+
+namespace scalpel {
+
+struct BoundaryFace {
+  std::uint32_t tet;                   // slot of the tetrahedron that owns the face
+  int local_face;                      // its local face index
+  std::array<std::uint32_t, 3> nodes;  // node slots, outward-oriented
+};
+
+// Faces of exactly one tetrahedron, in tet slot order.
+[[nodiscard]] std::vector<BoundaryFace> boundary_faces(const TetMesh& mesh);
+
+struct Components {
+  std::vector<std::uint32_t> of_tet;   // component id per tet slot (kInvalidIndex for free slots)
+  std::vector<double> rest_volume;     // per component
+  std::vector<std::size_t> tet_count;  // per component
+  [[nodiscard]] std::size_t count() const { return rest_volume.size(); }
+};
+
+// Components of the face-adjacency graph, numbered in order of their lowest tet slot.
+[[nodiscard]] Components connected_components(const TetMesh& mesh);
+
+}  // namespace scalpel

@@ -1,0 +1,216 @@
+#include "cutting/validate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <unordered_map>
+
+#include "cutting/predicates.hpp"
+#include "cutting/topology.hpp"
+
+namespace scalpel {
+
+namespace {
+
+struct Collector {
+  ValidationReport& report;
+  const ValidationOptions& options;
+  void add(Invariant inv, std::uint32_t element, std::string what) {
+    report.passed[static_cast<size_t>(inv)] = false;
+    if (report.violations.size() < options.max_violations)
+      report.violations.push_back({inv, element, std::move(what)});
+  }
+};
+
+std::string tet_text(const TetMesh& m, std::uint32_t t) {
+  const auto& v = m.tet_vertex_indices(t);
+  std::ostringstream s;
+  s << "tet " << t << " (nodes " << v[0] << ' ' << v[1] << ' ' << v[2] << ' ' << v[3] << ")";
+  return s.str();
+}
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return (std::uint64_t{a} << 32) | b;
+}
+
+// Invariant 2, geometric part: a node strictly inside a boundary face or on the interior of one of
+// its edges, without being a vertex of it, is a hanging node (a T-junction). Interior faces of a
+// conforming mesh are matched, so every hanging node shows up on an unmatched (boundary) face.
+void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& faces, Collector& c) {
+  // Hash grid of boundary-face bounding boxes, cell = mean face extent.
+  double extent = 0.0;
+  const auto& r = m.rest_positions();
+  for (const auto& f : faces)
+    extent += (r[f.nodes[0]] - r[f.nodes[1]]).norm() + (r[f.nodes[1]] - r[f.nodes[2]]).norm();
+  if (faces.empty()) return;
+  const double h = std::max(extent / (2.0 * faces.size()), 1e-12);
+  auto cell = [h](const Vec3& p) {
+    return std::array<long long, 3>{static_cast<long long>(std::floor(p.x() / h)),
+                                    static_cast<long long>(std::floor(p.y() / h)),
+                                    static_cast<long long>(std::floor(p.z() / h))};
+  };
+  std::map<std::array<long long, 3>, std::vector<std::uint32_t>> nodes_in_cell;
+  std::vector<std::uint8_t> seen(m.node_capacity(), 0);
+  for (const auto& f : faces)
+    for (const std::uint32_t n : f.nodes)
+      if (!seen[n]) {
+        seen[n] = 1;
+        nodes_in_cell[cell(r[n])].push_back(n);
+      }
+  for (const auto& f : faces) {
+    const Vec3 &a = r[f.nodes[0]], &b = r[f.nodes[1]], &d = r[f.nodes[2]];
+    const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
+    const auto clo = cell(lo), chi = cell(hi);
+    const Vec3 normal = (b - a).cross(d - a);
+    int drop = 0;
+    normal.cwiseAbs().maxCoeff(&drop);
+    for (long long i = clo[0]; i <= chi[0]; ++i)
+      for (long long j = clo[1]; j <= chi[1]; ++j)
+        for (long long k = clo[2]; k <= chi[2]; ++k) {
+          const auto it = nodes_in_cell.find({i, j, k});
+          if (it == nodes_in_cell.end()) continue;
+          for (const std::uint32_t n : it->second) {
+            if (n == f.nodes[0] || n == f.nodes[1] || n == f.nodes[2]) continue;
+            const Vec3& p = r[n];
+            if (p == a || p == b || p == d) continue;  // coincident copies across a cut
+            if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+            if (orient3d(a, b, d, p) != 0) continue;
+            const int s0 = orient2d_projected(a, b, p, drop), s1 = orient2d_projected(b, d, p, drop),
+                      s2 = orient2d_projected(d, a, p, drop);
+            const bool inside = (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
+            if (inside) {
+              std::ostringstream s;
+              s << "node " << n << " lies on boundary face (" << f.nodes[0] << ' ' << f.nodes[1] << ' '
+                << f.nodes[2] << ") of " << tet_text(m, f.tet) << " without being its vertex (hanging node)";
+              c.add(Invariant::Conforming, f.tet, s.str());
+            }
+          }
+        }
+  }
+}
+
+}  // namespace
+
+const char* invariant_name(Invariant i) {
+  switch (i) {
+    case Invariant::Oriented:
+      return "oriented";
+    case Invariant::Conforming:
+      return "conforming";
+    case Invariant::Watertight:
+      return "watertight";
+    case Invariant::Volume:
+      return "volume";
+  }
+  return "?";
+}
+
+std::string ValidationReport::summary() const {
+  std::ostringstream s;
+  for (const auto& v : violations)
+    s << "invariant " << static_cast<int>(v.invariant) << " (" << invariant_name(v.invariant)
+      << "): " << v.what << '\n';
+  return s.str();
+}
+
+ValidationReport validate(const TetMesh& m, const ValidationOptions& options) {
+  ValidationReport report;
+  Collector c{report, options};
+  const auto& r = m.rest_positions();
+  const auto& x = m.positions();
+
+  // 1. Oriented.
+  for (std::uint32_t t = 0; t < m.tet_capacity(); ++t) {
+    if (!m.tet_slot_alive(t)) continue;
+    const auto& v = m.tet_vertex_indices(t);
+    if (orient3d(r[v[0]], r[v[1]], r[v[2]], r[v[3]]) <= 0)
+      c.add(Invariant::Oriented, t, tet_text(m, t) + " has non-positive rest volume");
+    if (options.check_current && orient3d(x[v[0]], x[v[1]], x[v[2]], x[v[3]]) <= 0)
+      c.add(Invariant::Oriented, t, tet_text(m, t) + " has non-positive current volume");
+  }
+
+  // 2. Conforming, combinatorial part: every face in at most two tets, with opposite orientations,
+  // and the adjacency links agree with the face matching.
+  struct FaceUse {
+    std::uint32_t tet;
+    int face;
+    std::array<std::uint32_t, 3> oriented;
+  };
+  std::map<std::array<std::uint32_t, 3>, std::vector<FaceUse>> faces;
+  for (std::uint32_t t = 0; t < m.tet_capacity(); ++t) {
+    if (!m.tet_slot_alive(t)) continue;
+    for (int f = 0; f < 4; ++f) {
+      auto fv = face_vertex_indices(m, t, f);
+      auto key = fv;
+      std::sort(key.begin(), key.end());
+      faces[key].push_back({t, f, fv});
+    }
+  }
+  for (const auto& [key, uses] : faces) {
+    if (uses.size() > 2) {
+      c.add(Invariant::Conforming, uses[0].tet,
+            "face (" + std::to_string(key[0]) + ' ' + std::to_string(key[1]) + ' ' + std::to_string(key[2]) +
+                ") is shared by " + std::to_string(uses.size()) + " tetrahedra");
+      continue;
+    }
+    if (uses.size() == 2) {
+      // Opposite orientation: the second's cyclic order is the reverse of the first's.
+      const auto& p = uses[0].oriented;
+      const auto& q = uses[1].oriented;
+      bool reversed = false;
+      for (int s = 0; s < 3; ++s)
+        reversed |= q[0] == p[static_cast<size_t>(s)] && q[1] == p[static_cast<size_t>((s + 2) % 3)] &&
+                    q[2] == p[static_cast<size_t>((s + 1) % 3)];
+      if (!reversed)
+        c.add(Invariant::Conforming, uses[0].tet,
+              tet_text(m, uses[0].tet) + " and " + tet_text(m, uses[1].tet) +
+                  " share a face with the same orientation");
+      const TetId a = m.tet_handle(uses[0].tet);
+      if (m.neighbour(a, uses[0].face).index != uses[1].tet)
+        c.add(Invariant::Conforming, uses[0].tet,
+              tet_text(m, uses[0].tet) + " is not linked to its face neighbour " + tet_text(m, uses[1].tet));
+    } else {
+      const TetId a = m.tet_handle(uses[0].tet);
+      if (!m.neighbour(a, uses[0].face).is_null())
+        c.add(Invariant::Conforming, uses[0].tet,
+              tet_text(m, uses[0].tet) + " is linked across a face no other tetrahedron has");
+    }
+  }
+  const auto boundary = boundary_faces(m);
+  check_hanging_nodes(m, boundary, c);
+
+  // 3. Watertight: every directed boundary edge u->v is matched by as many v->u.
+  std::unordered_map<std::uint64_t, int> directed;
+  directed.reserve(boundary.size() * 3);
+  for (const auto& f : boundary)
+    for (int e = 0; e < 3; ++e)
+      ++directed[edge_key(f.nodes[static_cast<size_t>(e)], f.nodes[static_cast<size_t>((e + 1) % 3)])];
+  for (const auto& [key, count] : directed) {
+    const auto u = static_cast<std::uint32_t>(key >> 32), v = static_cast<std::uint32_t>(key & 0xffffffffu);
+    const auto it = directed.find(edge_key(v, u));
+    const int back = it == directed.end() ? 0 : it->second;
+    if (back != count)
+      c.add(Invariant::Watertight, u,
+            "boundary edge " + std::to_string(u) + "->" + std::to_string(v) + " appears " +
+                std::to_string(count) + " times but " + std::to_string(v) + "->" + std::to_string(u) + " " +
+                std::to_string(back) + " times");
+  }
+
+  // 4. Volume.
+  if (options.reference_volume) {
+    const double v0 = *options.reference_volume;
+    const double v = m.total_rest_volume();
+    const double tol = 1e-12 * std::max<double>(1.0, static_cast<double>(m.tet_count())) * std::abs(v0);
+    if (!(std::abs(v - v0) <= tol)) {
+      std::ostringstream s;
+      s.precision(17);
+      s << "total rest volume " << v << " differs from the original " << v0 << " by " << std::abs(v - v0)
+        << " (tolerance " << tol << ")";
+      c.add(Invariant::Volume, kInvalidIndex, s.str());
+    }
+  }
+  return report;
+}
+
+}  // namespace scalpel

@@ -1,0 +1,43 @@
+// Mesh invariants 1-4 of DESIGN section 5, checked on demand and, in SCALPEL_VALIDATE builds,
+// after every mutation by the code that mutates.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cutting/mesh.hpp"
+
+namespace scalpel {
+
+enum class Invariant : int { Oriented = 1, Conforming = 2, Watertight = 3, Volume = 4 };
+
+struct Violation {
+  Invariant invariant;
+  std::uint32_t element;  // tet slot for 1, 2 and 4; node slot for 3 (the edge's first node)
+  std::string what;
+};
+
+struct ValidationOptions {
+  // Invariant 4: the original total rest volume, if known.
+  std::optional<double> reference_volume;
+  // Invariant 1 in the current configuration too (off once the tissue model may invert elements).
+  bool check_current = false;
+  // Stop collecting after this many violations.
+  std::size_t max_violations = 64;
+};
+
+struct ValidationReport {
+  std::vector<Violation> violations;
+  std::array<bool, 5> passed{true, true, true, true, true};  // index = invariant number; [0] unused
+  [[nodiscard]] bool ok() const { return violations.empty(); }
+  // One line per violation: "invariant 2 (conforming), tet 17: ..."
+  [[nodiscard]] std::string summary() const;
+};
+
+[[nodiscard]] ValidationReport validate(const TetMesh& mesh, const ValidationOptions& options = {});
+
+[[nodiscard]] const char* invariant_name(Invariant i);
+
+}  // namespace scalpel

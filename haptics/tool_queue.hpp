@@ -1,0 +1,34 @@
+// The lock-free single-producer single-consumer queue of tool samples between the haptic thread
+// (producer) and the simulation thread (consumer), DESIGN section 1.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+
+#include <readerwriterqueue/readerwriterqueue.h>
+
+#include "devices/tool_sample.hpp"
+
+namespace scalpel {
+
+class ToolQueue {
+ public:
+  // Sized once; push never allocates.
+  explicit ToolQueue(std::size_t capacity);
+
+  // Producer thread only. Returns false, and counts the sample, when the queue is full.
+  bool push(const ToolSample& s);
+  // Consumer thread only.
+  bool pop(ToolSample& out);
+
+  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+  [[nodiscard]] std::uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
+
+ private:
+  moodycamel::ReaderWriterQueue<ToolSample> queue_;
+  std::size_t capacity_;
+  std::atomic<std::uint64_t> rejected_{0};  // written by the producer, read by anyone
+};
+
+}  // namespace scalpel

@@ -1,0 +1,121 @@
+#include <doctest/doctest.h>
+
+#include "cutting/generators.hpp"
+#include "cutting/mesh.hpp"
+#include "cutting/predicates.hpp"
+#include "cutting/topology.hpp"
+#include "cutting/validate.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+TetMesh unit_tet() {
+  TetMesh m;
+  const NodeId a = m.add_node(Vec3(0, 0, 0)), b = m.add_node(Vec3(1, 0, 0)), c = m.add_node(Vec3(0, 1, 0)),
+               d = m.add_node(Vec3(0, 0, 1));
+  m.add_tet({a, b, c, d});
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("orient3d is exact on nearly coplanar points") {
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  CHECK(orient3d(a, b, c, Vec3(0.2, 0.3, 1e-300)) == 1);
+  CHECK(orient3d(a, b, c, Vec3(0.2, 0.3, -1e-300)) == -1);
+  CHECK(orient3d(a, b, c, Vec3(0.2, 0.3, 0.0)) == 0);
+  // Points on a line through large coordinates: the float determinant is pure rounding noise.
+  const Vec3 p(1e15, 1e15, 1e15);
+  CHECK(orient3d(p, p + Vec3(1, 1, 0), p + Vec3(2, 2, 0), p + Vec3(0.5, 0.25, 3)) == 0);
+  CHECK(orient3d(Vec3(0.1, 0.2, 0.3), Vec3(0.4, 0.5, 0.6), Vec3(0.7, 0.8, 0.9), Vec3(0.3, 0.1, 0.7)) ==
+        orient3d(Vec3(0.1, 0.2, 0.3), Vec3(0.4, 0.5, 0.6), Vec3(0.7, 0.8, 0.9), Vec3(0.3, 0.1, 0.7)));
+}
+
+TEST_CASE("handles detect reuse of a freed slot") {
+  TetMesh m = unit_tet();
+  const TetId t = m.tets().front();
+  const auto nodes = m.tet_nodes(t);
+  m.remove_tet(t);
+  CHECK_FALSE(m.alive(t));
+  const TetId t2 = m.add_tet(nodes);
+  CHECK(t2.index == t.index);
+  CHECK(t2.generation != t.generation);
+  CHECK_THROWS((void)m.rest_volume(t));
+  CHECK(m.rest_volume(t2) == doctest::Approx(1.0 / 6.0));
+}
+
+TEST_CASE("adjacency is linked and unlinked incrementally") {
+  TetMesh m = make_box({.cells = {2, 2, 2}, .split = CubeSplit::Five});
+  CHECK(m.tet_count() == 40);
+  CHECK(validate(m, {.reference_volume = 1.0}).ok());
+  const TetId victim = m.tets()[7];
+  const auto nodes = m.tet_nodes(victim);
+  const int region = m.region(victim);
+  m.remove_tet(victim);
+  CHECK(validate(m).ok());  // a hole is still a closed surface
+  m.add_tet(nodes, region);
+  const auto report = validate(m, {.reference_volume = 1.0});
+  CHECK_MESSAGE(report.ok(), report.summary());
+  CHECK(boundary_faces(m).size() == 2u * 4u * 6u);  // 5-split: two triangles per cube face
+}
+
+TEST_CASE("box generators conform and conserve volume") {
+  for (const CubeSplit split : {CubeSplit::Five, CubeSplit::Six}) {
+    const TetMesh m =
+        make_box({.min = Vec3(-1, 0, 0), .max = Vec3(2, 1, 0.5), .cells = {3, 2, 2}, .split = split});
+    CHECK(m.tet_count() == 12u * static_cast<unsigned>(split));
+    const auto report = validate(m, {.reference_volume = 1.5});
+    CHECK_MESSAGE(report.ok(), report.summary());
+    CHECK(connected_components(m).count() == 1);
+  }
+}
+
+TEST_CASE("slab layers become regions from the top down") {
+  const TetMesh m = make_slab({.size_x = 0.02,
+                               .size_y = 0.01,
+                               .cells = {4, 2},
+                               .layers = {{"epidermis", 0.001, 1}, {"dermis", 0.002, 2}, {"fat", 0.004, 2}}});
+  CHECK(validate(m, {.reference_volume = 0.02 * 0.01 * 0.007}).ok());
+  for (const TetId t : m.tets()) {
+    double zc = 0;
+    for (const NodeId n : m.tet_nodes(t)) zc += m.rest(n).z() / 4;
+    const int expected = zc > -0.001 ? 0 : (zc > -0.003 ? 1 : 2);
+    CHECK(m.region(t) == expected);
+  }
+}
+
+TEST_CASE("validate names the broken invariant and element") {
+  SUBCASE("inverted tetrahedron") {
+    TetMesh m;
+    const NodeId a = m.add_node(Vec3(0, 0, 0)), b = m.add_node(Vec3(1, 0, 0)), c = m.add_node(Vec3(0, 1, 0)),
+                 d = m.add_node(Vec3(0, 0, 1));
+    m.add_tet({a, c, b, d});
+    const auto r = validate(m);
+    REQUIRE_FALSE(r.ok());
+    CHECK(r.violations[0].invariant == Invariant::Oriented);
+    CHECK(r.summary().find("tet 0") != std::string::npos);
+  }
+  SUBCASE("hanging node on a face") {
+    // Two tets glued along a face, one of them split into three at an interior point of that face:
+    // the other side does not follow, so the split node hangs.
+    TetMesh m;
+    const NodeId a = m.add_node(Vec3(0, 0, 0)), b = m.add_node(Vec3(1, 0, 0)), c = m.add_node(Vec3(0, 1, 0)),
+                 top = m.add_node(Vec3(0, 0, 1)), bottom = m.add_node(Vec3(0.2, 0.2, -1));
+    const NodeId mid = m.add_node(Vec3(1.0 / 3, 1.0 / 3, 0));
+    m.add_tet({a, b, c, top});
+    m.add_tet({a, mid, b, bottom});
+    m.add_tet({b, mid, c, bottom});
+    m.add_tet({c, mid, a, bottom});
+    const auto r = validate(m);
+    CHECK_FALSE(r.passed[2]);
+    CHECK(r.summary().find("hanging node") != std::string::npos);
+  }
+  SUBCASE("lost volume") {
+    TetMesh m = make_box({});
+    m.remove_tet(m.tets().front());
+    const auto r = validate(m, {.reference_volume = 1.0});
+    CHECK_FALSE(r.passed[4]);
+    CHECK(r.passed[3]);
+  }
+}
