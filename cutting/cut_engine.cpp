@@ -1,0 +1,694 @@
+#include "cutting/cut_engine.hpp"
+
+#include <algorithm>
+#include <numeric>
+#include <set>
+#include <stdexcept>
+
+#include "cutting/validate.hpp"
+
+namespace scalpel {
+
+struct CutEngine::CutNode {
+  enum class Kind : std::uint8_t { Edge, Mid, Entry };
+  Kind kind = Kind::Edge;
+  std::array<std::uint32_t, 3> key{};  // sorted coarse node slots; an edge has key[2] = kInvalidIndex
+  Vec3 bary = Vec3::Zero();            // weights of the key nodes
+  Vec3 sample_sum = Vec3::Zero();      // mid node: sum of sampled ENP barycentrics (§5.2)
+  int samples = 0;
+  bool crossing = false;               // mid node: the blade crosses the face now
+  int entry_subtriangle = -1;          // mid node on a face with an entry node: which part holds it
+  Vec3 sheet_normal = Vec3::Zero();    // edge node: normal of the swept surface where it was cut
+  std::vector<NodeId> copies;          // real nodes; copies[g] serves group g
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> group_of;  // (coarse, sub) -> group
+};
+
+struct CutEngine::CoarseTet {
+  std::vector<std::array<GNode, 4>> subs;   // the subdivision in abstract nodes
+  std::vector<std::array<NodeId, 4>> real;  // the real nodes of each live sub-tetrahedron
+  std::vector<TetId> live;
+  CutTopology topology;
+  bool complete = false;
+};
+
+void CutTotals::add(const CutStepStats& s) {
+  ++steps;
+  edges_cut += s.edges_cut;
+  backward_crossings += s.backward_crossings;
+  recrossed_edges += s.recrossed_edges;
+  face_pierces += s.face_pierces;
+  tets_created += s.tets_created;
+  tets_removed += s.tets_removed;
+  nodes_created += s.nodes_created;
+}
+
+namespace {
+
+using Key3 = std::array<std::uint32_t, 3>;
+
+Key3 sorted_key(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+  Key3 k{a, b, c};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+Key3 edge_key(std::uint32_t a, std::uint32_t b) { return {std::min(a, b), std::max(a, b), kInvalidIndex}; }
+
+// Barycentric coordinates of p in triangle (a, b, c), p assumed near its plane.
+Vec3 barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = (b - a).cross(c - a);
+  const double nn = n.squaredNorm();
+  if (nn == 0.0) return Vec3::Constant(1.0 / 3.0);
+  const double la = (b - p).cross(c - p).dot(n) / nn;
+  const double lb = (c - p).cross(a - p).dot(n) / nn;
+  return {la, lb, 1.0 - la - lb};
+}
+
+// Pulls barycentric weights into the interior: every weight at least `floor` (a sliver guard).
+Vec3 clamp_interior(Vec3 w, double floor) {
+  w = w.cwiseMax(0.0);
+  const double sum = w.sum();
+  w = sum > 0 ? Vec3(w / sum) : Vec3::Constant(1.0 / 3.0);
+  const double lo = w.minCoeff();
+  if (lo >= floor) return w;
+  // Blend toward the centroid just enough: (1-s) lo + s/3 = floor.
+  const double s = (floor - lo) / (1.0 / 3.0 - lo);
+  return (1.0 - s) * w + Vec3::Constant(s / 3.0);
+}
+
+int index_of(const std::array<std::uint64_t, 4>& t, std::uint64_t g) {
+  for (int i = 0; i < 4; ++i)
+    if (t[static_cast<size_t>(i)] == g) return i;
+  return -1;
+}
+
+bool contains(const std::array<std::uint64_t, 4>& t, std::uint64_t g) { return index_of(t, g) >= 0; }
+
+// Stellar split of the sub-tetrahedron holding face {x, y, z} at a point inside that face: the
+// three copies replace one face vertex each by m, so each keeps a positive volume (its volume is
+// the barycentric weight of the replaced vertex times the parent's).
+void split_face(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t x, std::uint64_t y, std::uint64_t z,
+                std::uint64_t m) {
+  for (size_t s = 0; s < subs.size(); ++s) {
+    const auto t = subs[s];
+    if (!contains(t, x) || !contains(t, y) || !contains(t, z)) continue;
+    bool first = true;
+    for (int i = 0; i < 4; ++i) {
+      const auto v = t[static_cast<size_t>(i)];
+      if (v != x && v != y && v != z) continue;
+      auto child = t;
+      child[static_cast<size_t>(i)] = m;
+      if (first) {
+        subs[s] = child;
+        first = false;
+      } else {
+        subs.push_back(child);
+      }
+    }
+    return;
+  }
+  throw std::logic_error("CutEngine: face to split not found in the subdivision");
+}
+
+// Stellar split of every sub-tetrahedron holding edge {p, q} at a point inside it.
+void split_edge(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t p, std::uint64_t q, std::uint64_t x) {
+  const size_t n = subs.size();
+  for (size_t s = 0; s < n; ++s) {
+    const int ip = index_of(subs[s], p), iq = index_of(subs[s], q);
+    if (ip < 0 || iq < 0) continue;
+    auto other = subs[s];
+    subs[s][static_cast<size_t>(ip)] = x;
+    other[static_cast<size_t>(iq)] = x;
+    subs.push_back(other);
+  }
+}
+
+}  // namespace
+
+CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
+    : mesh_(mesh), coarse_(mesh), coarse_nodes_(mesh.node_capacity()), options_(options) {
+  sweep_ = std::make_unique<BladeSweep>(coarse_);
+  live_to_coarse_.resize(mesh.tet_capacity());
+  std::iota(live_to_coarse_.begin(), live_to_coarse_.end(), 0u);
+}
+
+CutEngine::~CutEngine() = default;
+
+void CutEngine::refit() {
+  auto& x = coarse_.positions();
+  const auto& live = mesh_.positions();
+  std::copy(live.begin(), live.begin() + static_cast<std::ptrdiff_t>(coarse_nodes_), x.begin());
+  sweep_->refit();
+}
+
+void CutEngine::place(const BladePose& pose) {
+  blade_ = pose;
+  placed_ = true;
+}
+
+std::uint32_t CutEngine::coarse_of(TetId live) const {
+  if (!mesh_.alive(live)) throw std::logic_error("CutEngine::coarse_of: stale handle");
+  return live.index < live_to_coarse_.size() ? live_to_coarse_[live.index] : kInvalidIndex;
+}
+
+CutTopology CutEngine::topology(std::uint32_t coarse_slot) const {
+  const auto it = cut_tets_.find(coarse_slot);
+  return it == cut_tets_.end() ? CutTopology{} : it->second.topology;
+}
+
+std::string CutEngine::state_label_of(std::uint32_t coarse_slot) const {
+  const auto it = cut_tets_.find(coarse_slot);
+  if (it == cut_tets_.end()) return "O0";
+  return state_label(it->second.topology, it->second.complete);
+}
+
+std::vector<std::size_t> CutEngine::subdivision_sizes() const {
+  std::vector<std::uint32_t> keys;
+  for (const auto& [k, v] : cut_tets_) keys.push_back(k);
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::size_t> out;
+  for (const auto k : keys) out.push_back(cut_tets_.at(k).live.size());
+  return out;
+}
+
+std::uint32_t CutEngine::edge_node(std::uint32_t a, std::uint32_t b) const {
+  const auto it = edge_nodes_.find(edge_key(a, b));
+  return it == edge_nodes_.end() ? kInvalidIndex : it->second;
+}
+
+std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, const Key3& key) const {
+  const auto it = map.find(key);
+  return it == map.end() ? kInvalidIndex : it->second;
+}
+
+// Places every copy of a cut node at its weights over the coarse nodes, in the rest and the
+// current configuration (DESIGN §3: the cut is made in the current configuration and carried to
+// the rest one by the same weights).
+void CutEngine::place_cut_node(std::uint32_t id) {
+  CutNode& n = cut_nodes_[id];
+  const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
+  Vec3 r = Vec3::Zero(), x = Vec3::Zero();
+  for (int i = 0; i < count; ++i) {
+    const NodeId p = mesh_.node_handle(n.key[static_cast<size_t>(i)]);
+    r += n.bary[i] * mesh_.rest(p);
+    x += n.bary[i] * mesh_.position(p);
+  }
+  for (const NodeId c : n.copies) {
+    mesh_.set_rest(c, r);
+    mesh_.set_position(c, x);
+    moved_nodes_.push_back(c);
+  }
+}
+
+// Where a mid node stands (§4.1, §5.2): on the blade while the blade crosses the face; afterwards
+// at the average of its sampled positions; a face the swept surface crossed between two samples
+// has none, and takes the middle of its trace (the average of the trace's end points on the face).
+void CutEngine::update_face_position(std::uint32_t id) {
+  CutNode& n = cut_nodes_[id];
+  if (n.copies.size() > 1) return;  // the crack has opened here: the node is final
+  const Key3& k = n.key;
+  const Vec3 pa = coarse_.positions()[k[0]], pb = coarse_.positions()[k[1]], pc = coarse_.positions()[k[2]];
+  Vec3 w;
+  if (n.crossing) {
+    w = n.bary;
+  } else if (n.samples > 0) {
+    w = n.sample_sum / n.samples;
+  } else {
+    // Trace end points known on this face: its cut edges and its entry node.
+    std::vector<Vec3> ends;
+    const std::array<std::array<int, 2>, 3> edges{{{0, 1}, {1, 2}, {0, 2}}};
+    std::uint32_t single_edge = kInvalidIndex;
+    for (const auto& e : edges) {
+      const std::uint32_t en = edge_node(k[static_cast<size_t>(e[0])], k[static_cast<size_t>(e[1])]);
+      if (en == kInvalidIndex) continue;
+      Vec3 b = Vec3::Zero();
+      b[e[0]] = cut_nodes_[en].bary[0];  // key order of an edge is ascending, as in the face key
+      b[e[1]] = cut_nodes_[en].bary[1];
+      ends.push_back(b);
+      single_edge = en;
+    }
+    const std::uint32_t entry = face_node(entry_nodes_, k);
+    if (entry != kInvalidIndex) ends.push_back(cut_nodes_[entry].bary);
+    if (ends.size() >= 2) {
+      w = Vec3::Zero();
+      for (const auto& b : ends) w += b / static_cast<double>(ends.size());
+    } else if (single_edge != kInvalidIndex) {
+      // One cut edge: follow the swept surface's plane from the cut point across the face.
+      const Vec3 start = ends[0];
+      const Vec3 x = start[0] * pa + start[1] * pb + start[2] * pc;
+      const Vec3& normal = cut_nodes_[single_edge].sheet_normal;
+      const std::array<Vec3, 3> p{pa, pb, pc};
+      w = (start + Vec3::Constant(1.0 / 3.0)) / 2.0;  // if the plane misses the face
+      for (int i = 0; i < 3 && normal.squaredNorm() > 0; ++i) {
+        const int j = (i + 1) % 3;
+        if (start[i] > 0 && start[j] > 0) continue;  // the edge that was cut
+        const double di = normal.dot(p[static_cast<size_t>(i)] - x), dj = normal.dot(p[static_cast<size_t>(j)] - x);
+        if ((di < 0) == (dj < 0) || di == dj) continue;
+        const double t = di / (di - dj);
+        Vec3 end = Vec3::Zero();
+        end[i] = 1.0 - t;
+        end[j] = t;
+        w = (start + end) / 2.0;
+        break;
+      }
+    } else if (!ends.empty()) {
+      w = ends[0];
+    } else {
+      w = Vec3::Constant(1.0 / 3.0);
+    }
+  }
+  w = clamp_interior(w, options_.min_face_bary);
+
+  // With an entry node on the face, the mid node lies in one of the three parts the entry node
+  // cuts the face into; keep it clearly inside that part.
+  const std::uint32_t entry = face_node(entry_nodes_, k);
+  if (entry != kInvalidIndex) {
+    const Vec3 e = cut_nodes_[entry].bary;
+    int best = -1;
+    double best_min = -1e300;
+    Vec3 best_local;
+    for (int j = 0; j < 3; ++j) {
+      // Part j: corner j replaced by the entry node. Local weights (on e, then the two corners).
+      const double alpha = w[j] / e[j];
+      Vec3 local(alpha, 0, 0);
+      local[1] = w[(j + 1) % 3] - alpha * e[(j + 1) % 3];
+      local[2] = w[(j + 2) % 3] - alpha * e[(j + 2) % 3];
+      if (local.minCoeff() > best_min) {
+        best_min = local.minCoeff();
+        best = j;
+        best_local = local;
+      }
+    }
+    best_local = clamp_interior(best_local, 0.01);
+    w = best_local[0] * e;
+    w[(best + 1) % 3] += best_local[1];
+    w[(best + 2) % 3] += best_local[2];
+    n.entry_subtriangle = best;
+  }
+  n.bary = w;
+  place_cut_node(id);
+}
+
+CutTopology CutEngine::compute_topology(std::uint32_t t) const {
+  CutTopology topo;
+  const auto& v = coarse_.tet_vertex_indices(t);
+  for (int e = 0; e < 6; ++e) {
+    const auto& ev = kEdgeVertices[static_cast<size_t>(e)];
+    if (edge_node(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]) != kInvalidIndex)
+      topo.edges |= static_cast<std::uint8_t>(1u << e);
+  }
+  for (int f = 0; f < 4; ++f) {
+    const auto fv = face_vertex_indices(coarse_, t, f);
+    const Key3 k = sorted_key(fv[0], fv[1], fv[2]);
+    if (face_node(mid_nodes_, k) != kInvalidIndex) topo.faces |= static_cast<std::uint8_t>(1u << f);
+    if (face_node(entry_nodes_, k) != kInvalidIndex) topo.entries |= static_cast<std::uint8_t>(1u << f);
+  }
+  return topo;
+}
+
+// The subdivision of one coarse tetrahedron (see the header): entry nodes, then mid nodes, then
+// edge nodes, each a stellar split. Face triangulations depend on face data only, so the two
+// tetrahedra of a face always agree.
+void CutEngine::subdivide(std::uint32_t t, std::vector<std::array<GNode, 4>>& out) const {
+  const auto& v = coarse_.tet_vertex_indices(t);
+  out.assign(1, {v[0], v[1], v[2], v[3]});
+  for (int f = 0; f < 4; ++f) {
+    const auto fv = face_vertex_indices(coarse_, t, f);
+    const Key3 k = sorted_key(fv[0], fv[1], fv[2]);
+    const std::uint32_t entry = face_node(entry_nodes_, k), mid = face_node(mid_nodes_, k);
+    if (entry != kInvalidIndex) {
+      split_face(out, k[0], k[1], k[2], kCutBit | entry);
+      if (mid != kInvalidIndex) {
+        const int j = cut_nodes_[mid].entry_subtriangle;
+        std::array<GNode, 3> part{k[0], k[1], k[2]};
+        part[static_cast<size_t>(j)] = kCutBit | entry;
+        split_face(out, part[0], part[1], part[2], kCutBit | mid);
+      }
+    } else if (mid != kInvalidIndex) {
+      split_face(out, k[0], k[1], k[2], kCutBit | mid);
+    }
+  }
+  for (int e = 0; e < 6; ++e) {
+    const auto& ev = kEdgeVertices[static_cast<size_t>(e)];
+    const std::uint32_t a = v[static_cast<size_t>(ev[0])], b = v[static_cast<size_t>(ev[1])];
+    const std::uint32_t x = edge_node(a, b);
+    if (x != kInvalidIndex) split_edge(out, a, b, kCutBit | x);
+  }
+}
+
+bool CutEngine::is_crack_face(GNode a, GNode b, GNode c) const {
+  for (const GNode g : {a, b, c}) {
+    if (!(g & kCutBit)) return false;
+    if (cut_nodes_[static_cast<size_t>(g & ~kCutBit)].kind == CutNode::Kind::Entry) return false;
+  }
+  return true;
+}
+
+std::vector<std::uint32_t> CutEngine::coarse_tets_around(const std::array<std::uint32_t, 3>& key) const {
+  std::vector<std::uint32_t> out;
+  for (const std::uint32_t t : coarse_.node_tets(coarse_.node_handle(key[0]))) {
+    const auto& v = coarse_.tet_vertex_indices(t);
+    bool all = true;
+    for (int i = 1; i < 3; ++i)
+      if (key[static_cast<size_t>(i)] != kInvalidIndex)
+        all &= std::find(v.begin(), v.end(), key[static_cast<size_t>(i)]) != v.end();
+    if (all) out.push_back(t);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Groups the sub-tetrahedra around a cut node by face adjacency that does not cross the crack;
+// group g uses copies[g]. Groups are ordered by the smallest coarse vertex they hold, which the
+// cut never changes, so a side keeps its real node from step to step.
+void CutEngine::regroup(std::uint32_t id) {
+  CutNode& n = cut_nodes_[id];
+  const GNode g = kCutBit | id;
+  struct Item {
+    std::uint32_t coarse, sub;
+  };
+  std::vector<Item> items;
+  for (const std::uint32_t t : coarse_tets_around(n.key)) {
+    const auto it = cut_tets_.find(t);
+    if (it == cut_tets_.end()) continue;
+    const auto& subs = it->second.subs;
+    for (std::uint32_t s = 0; s < subs.size(); ++s)
+      if (contains(subs[s], g)) items.push_back({t, s});
+  }
+  std::vector<std::uint32_t> parent(items.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  std::map<std::array<GNode, 3>, std::uint32_t> faces;
+  for (std::uint32_t i = 0; i < items.size(); ++i) {
+    const auto& tet = cut_tets_.at(items[i].coarse).subs[items[i].sub];
+    for (int f = 0; f < 4; ++f) {
+      if (tet[static_cast<size_t>(f)] == g) continue;  // the face opposite n does not hold n
+      std::array<GNode, 3> face{};
+      int k = 0;
+      for (int j = 0; j < 4; ++j)
+        if (j != f) face[static_cast<size_t>(k++)] = tet[static_cast<size_t>(j)];
+      if (is_crack_face(face[0], face[1], face[2])) continue;
+      std::sort(face.begin(), face.end());
+      const auto [pos, inserted] = faces.emplace(face, i);
+      if (!inserted) parent[find(i)] = find(pos->second);
+    }
+  }
+  // Order groups by the smallest vertex (coarse corners sort before cut nodes) they contain.
+  std::map<std::uint32_t, GNode> smallest;
+  for (std::uint32_t i = 0; i < items.size(); ++i) {
+    const auto& tet = cut_tets_.at(items[i].coarse).subs[items[i].sub];
+    GNode lo = ~GNode{0};
+    for (const GNode v : tet)
+      if (v != g) lo = std::min(lo, v);
+    const std::uint32_t r = find(i);
+    const auto it = smallest.find(r);
+    if (it == smallest.end() || lo < it->second) smallest[r] = lo;
+  }
+  std::vector<std::pair<GNode, std::uint32_t>> order;
+  for (const auto& [root, lo] : smallest) order.emplace_back(lo, root);
+  std::sort(order.begin(), order.end());
+  std::map<std::uint32_t, std::uint32_t> group_of_root;
+  for (std::uint32_t k = 0; k < order.size(); ++k) group_of_root[order[k].second] = k;
+
+  while (n.copies.size() < order.size()) {
+    NodeParents p;
+    p.parents[0] = n.copies[0];
+    p.weights[0] = 1.0;
+    p.count = 1;
+    n.copies.push_back(mesh_.add_interpolated_node(p));
+  }
+  n.group_of.clear();
+  for (std::uint32_t i = 0; i < items.size(); ++i) n.group_of[{items[i].coarse, items[i].sub}] = group_of_root[find(i)];
+}
+
+// Brings the live sub-tetrahedra of one coarse tetrahedron in line with its subdivision and the
+// node groups: elements whose real nodes are unchanged stay (minimal removals, §4.3).
+void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
+  CoarseTet& c = cut_tets_.at(t);
+  std::vector<std::array<NodeId, 4>> real(c.subs.size());
+  for (std::uint32_t s = 0; s < c.subs.size(); ++s)
+    for (int i = 0; i < 4; ++i) {
+      const GNode g = c.subs[s][static_cast<size_t>(i)];
+      if (!(g & kCutBit)) {
+        real[s][static_cast<size_t>(i)] = mesh_.node_handle(static_cast<std::uint32_t>(g));
+      } else {
+        const CutNode& n = cut_nodes_[static_cast<size_t>(g & ~kCutBit)];
+        const auto it = n.group_of.find({t, s});
+        real[s][static_cast<size_t>(i)] = n.copies[it == n.group_of.end() ? 0 : it->second];
+      }
+    }
+  // Match old live elements to new ones by their real nodes.
+  std::map<std::array<NodeId, 4>, std::vector<std::size_t>> old_by_nodes;
+  for (std::size_t i = 0; i < c.real.size(); ++i) old_by_nodes[c.real[i]].push_back(i);
+  std::vector<TetId> live(real.size());
+  std::vector<bool> kept(c.live.size(), false);
+  std::vector<std::size_t> to_add;
+  for (std::size_t s = 0; s < real.size(); ++s) {
+    auto it = old_by_nodes.find(real[s]);
+    if (it != old_by_nodes.end() && !it->second.empty()) {
+      const std::size_t i = it->second.back();
+      it->second.pop_back();
+      kept[i] = true;
+      live[s] = c.live[i];
+    } else {
+      to_add.push_back(s);
+    }
+  }
+  const std::uint32_t parent = c.live.empty() ? t : mesh_.parent(c.live[0]);
+  const int region = coarse_.region(coarse_.tet_handle(t));
+  for (std::size_t i = 0; i < c.live.size(); ++i) {
+    if (kept[i]) continue;
+    mesh_.remove_tet(c.live[i]);
+    ++stats.tets_removed;
+  }
+  for (const std::size_t s : to_add) {
+    live[s] = mesh_.add_tet(real[s], region);
+    mesh_.set_parent(live[s], parent);
+    if (live_to_coarse_.size() <= live[s].index) live_to_coarse_.resize(live[s].index + 1, kInvalidIndex);
+    live_to_coarse_[live[s].index] = t;
+    ++stats.tets_created;
+  }
+  c.real = std::move(real);
+  c.live = std::move(live);
+}
+
+CutStepStats CutEngine::step(const BladePose& pose) {
+  CutStepStats stats;
+  moved_nodes_.clear();
+  if (!placed_) {
+    place(pose);
+    totals_.add(stats);
+    return stats;
+  }
+  sweep_->sweep(blade_, pose, sweep_result_);
+  const BladePose prev = blade_;
+  blade_ = pose;
+  stats.tets_touched = sweep_result_.tets.size();
+
+  std::set<Key3> changed_faces;      // faces whose topology (mid or entry node) is new
+  std::set<Key3> positioned_faces;   // faces whose mid node must be placed again
+  std::set<std::uint32_t> affected;  // coarse tetrahedra to subdivide again
+  const std::size_t nodes_before = mesh_.node_count();
+
+  auto new_cut_node = [&](CutNode::Kind kind, const Key3& key, const Vec3& bary) {
+    CutNode n;
+    n.kind = kind;
+    n.key = key;
+    n.bary = bary;
+    NodeParents p;
+    p.count = kind == CutNode::Kind::Edge ? 2 : 3;
+    for (int i = 0; i < p.count; ++i) {
+      p.parents[static_cast<size_t>(i)] = mesh_.node_handle(key[static_cast<size_t>(i)]);
+      p.weights[static_cast<size_t>(i)] = bary[i];
+    }
+    n.copies.push_back(mesh_.add_interpolated_node(p));
+    cut_nodes_.push_back(std::move(n));
+    return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
+  };
+  auto face_bary = [&](const Key3& k, const Vec3& point) {
+    const auto& x = coarse_.positions();
+    return barycentric(point, x[k[0]], x[k[1]], x[k[2]]);
+  };
+
+  // Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
+  std::vector<const EdgeCut*> edges;
+  for (const auto& e : sweep_result_.edges) edges.push_back(&e);
+  std::stable_sort(edges.begin(), edges.end(), [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
+  std::vector<Key3> new_edges;
+  for (const EdgeCut* e : edges) {
+    const Key3 k = edge_key(e->a, e->b);
+    if (edge_nodes_.count(k)) {
+      ++stats.recrossed_edges;
+      continue;
+    }
+    if (!e->forward) {
+      ++stats.backward_crossings;
+      continue;
+    }
+    double t = std::clamp(e->t, options_.min_edge_param, 1.0 - options_.min_edge_param);
+    if (e->a > e->b) t = 1.0 - t;  // weights follow the ascending key
+    const std::uint32_t id = new_cut_node(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0));
+    // Normal of the swept surface at the crossing: blade direction x blade motion there.
+    const Vec3 dir = (1.0 - e->s) * (pose.back - prev.back) + e->s * (pose.tip - prev.tip);
+    cut_nodes_[id].sheet_normal = (pose.tip - pose.back).cross(dir);
+    edge_nodes_.emplace(k, id);
+    new_edges.push_back(k);
+    ++stats.edges_cut;
+  }
+
+  // Tip pierces: entry nodes (§4.1).
+  for (const auto& p : sweep_result_.pierces) {
+    const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
+    if (entry_nodes_.count(k)) continue;
+    const Vec3 w = clamp_interior(face_bary(k, p.point), 0.05);
+    entry_nodes_.emplace(k, new_cut_node(CutNode::Kind::Entry, k, w));
+    changed_faces.insert(k);
+    positioned_faces.insert(k);
+    ++stats.face_pierces;
+  }
+
+  // Faces the blade crosses now: their mid node is the ENP and follows the blade.
+  std::set<Key3> crossing_now;
+  for (const auto& c : sweep_result_.crossings) {
+    const Key3 k = sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]);
+    if (!crossing_now.insert(k).second) continue;
+    const Vec3 w = clamp_interior(face_bary(k, c.point), options_.min_face_bary);
+    std::uint32_t id = face_node(mid_nodes_, k);
+    if (id == kInvalidIndex) {
+      id = new_cut_node(CutNode::Kind::Mid, k, w);
+      mid_nodes_.emplace(k, id);
+      changed_faces.insert(k);
+    }
+    CutNode& n = cut_nodes_[id];
+    if (n.copies.size() > 1) continue;  // already cut through; a second pass is the recursive case
+    n.crossing = true;
+    n.bary = w;
+    n.sample_sum += w;
+    ++n.samples;
+    positioned_faces.insert(k);
+  }
+  for (auto& [k, id] : mid_nodes_) {
+    CutNode& n = cut_nodes_[id];
+    if (n.crossing && !crossing_now.count(k)) {
+      n.crossing = false;  // the blade left the face: settle at the averaged trajectory (§5.2)
+      positioned_faces.insert(k);
+    }
+  }
+
+  // Every face around a new cut edge carries the trace of the swept surface through it.
+  for (const Key3& k : new_edges) {
+    const CutNode& en = cut_nodes_[edge_nodes_.at(k)];
+    for (const std::uint32_t t : coarse_tets_around(en.key)) {
+      affected.insert(t);
+      const auto& v = coarse_.tet_vertex_indices(t);
+      for (const std::uint32_t third : v) {
+        if (third == k[0] || third == k[1]) continue;
+        const Key3 fk = sorted_key(k[0], k[1], third);
+        positioned_faces.insert(fk);
+        if (face_node(mid_nodes_, fk) == kInvalidIndex) {
+          mid_nodes_.emplace(fk, new_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
+          changed_faces.insert(fk);
+        }
+      }
+    }
+  }
+
+  // Place mid nodes; a mid node that moves to another part of an entry-split face changes topology.
+  for (const Key3& k : positioned_faces) {
+    const std::uint32_t id = face_node(mid_nodes_, k);
+    if (id == kInvalidIndex) continue;
+    const int before = cut_nodes_[id].entry_subtriangle;
+    update_face_position(id);
+    if (cut_nodes_[id].entry_subtriangle != before) changed_faces.insert(k);
+  }
+  for (const Key3& k : changed_faces)
+    for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
+
+  // Subdivide the affected tetrahedra again and record their transitions.
+  std::set<std::uint32_t> regroup_ids;
+  for (const std::uint32_t t : affected) {
+    auto [it, fresh] = cut_tets_.try_emplace(t);
+    CoarseTet& c = it->second;
+    if (fresh) {
+      const TetId live = mesh_.tet_handle(t);
+      c.live = {live};
+      c.real = {mesh_.tet_nodes(live)};
+      ++totals_.coarse_tets_cut;
+    }
+    const std::string before = state_label(c.topology, c.complete);
+    c.topology = compute_topology(t);
+    subdivide(t, c.subs);
+    for (const auto& s : c.subs)
+      for (const GNode g : s)
+        if ((g & kCutBit) && cut_nodes_[static_cast<size_t>(g & ~kCutBit)].kind != CutNode::Kind::Entry)
+          regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
+    c.complete = false;
+    const std::string after = state_label(c.topology, c.complete);
+    if (before != after) {
+      ++stats.transitions;
+      ++totals_.transitions[before + "->" + after];
+    }
+  }
+  // Completion: a cut tetrahedron none of whose faces the blade crosses any more is in an end state.
+  for (auto& [t, c] : cut_tets_) {
+    bool crossed = false;
+    for (int f = 0; f < 4 && !crossed; ++f) {
+      const auto fv = face_vertex_indices(coarse_, t, f);
+      const std::uint32_t id = face_node(mid_nodes_, sorted_key(fv[0], fv[1], fv[2]));
+      crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
+    }
+    if (!crossed && !c.complete && c.topology.edges != 0) {
+      const std::string before = state_label(c.topology, false);
+      c.complete = true;
+      ++stats.transitions;
+      ++totals_.transitions[before + "->" + state_label(c.topology, true)];
+    }
+  }
+
+  // Open the crack where the cut surface now surrounds a node.
+  std::set<std::uint32_t> rebuild = affected;
+  for (const std::uint32_t id : regroup_ids) {
+    regroup(id);
+    for (const std::uint32_t t : coarse_tets_around(cut_nodes_[id].key))
+      if (cut_tets_.count(t)) rebuild.insert(t);
+  }
+  for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
+  stats.nodes_created = mesh_.node_count() - nodes_before;
+  totals_.add(stats);
+
+#ifdef SCALPEL_VALIDATE
+  const auto report = validate(mesh_);
+  if (!report.ok()) throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
+#endif
+  return stats;
+}
+
+double CutEngine::cut_surface_area() const {
+  std::set<std::array<GNode, 3>> seen;
+  double area = 0.0;
+  std::vector<std::uint32_t> keys;
+  for (const auto& [k, c] : cut_tets_) keys.push_back(k);
+  std::sort(keys.begin(), keys.end());
+  auto position = [&](GNode g) -> Vec3 {
+    if (!(g & kCutBit)) return mesh_.positions()[static_cast<size_t>(g)];
+    return mesh_.position(cut_nodes_[static_cast<size_t>(g & ~kCutBit)].copies[0]);
+  };
+  for (const std::uint32_t k : keys)
+    for (const auto& s : cut_tets_.at(k).subs)
+      for (int f = 0; f < 4; ++f) {
+        std::array<GNode, 3> face{};
+        int j = 0;
+        for (int i = 0; i < 4; ++i)
+          if (i != f) face[static_cast<size_t>(j++)] = s[static_cast<size_t>(i)];
+        if (!is_crack_face(face[0], face[1], face[2])) continue;
+        std::sort(face.begin(), face.end());
+        if (!seen.insert(face).second) continue;
+        area += 0.5 * (position(face[1]) - position(face[0])).cross(position(face[2]) - position(face[0])).norm();
+      }
+  return area;
+}
+
+}  // namespace scalpel

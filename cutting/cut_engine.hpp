@@ -1,0 +1,139 @@
+// Progressive cutting of a tetrahedral mesh (paper §3-4, DESIGN §3-4).
+//
+// The engine keeps the original ("coarse") tetrahedra as the units the state machine works on. A
+// coarse tetrahedron that the blade has touched is replaced in the live mesh by its subdivision,
+// which is a function of the cut data on its edges and faces only:
+//   - a cut edge holds one EdgeNode at parameter t (two or more real copies once the crack opens);
+//   - a face holds a MidNode (the ENP of §4.1 while the blade crosses the face; afterwards left at
+//     the averaged position of its sampled trajectory, §5.2) and optionally an EntryNode where the
+//     tip pierced it.
+// Face and edge data are shared by every tetrahedron that has the face or edge, so neighbours
+// always agree on how a face is triangulated (DESIGN §3).
+//
+// Subdivision rule (documented in config/cutting/subdivision.md): stellar splits in a fixed order,
+// entry nodes, then mid nodes, then edge nodes. Each split replaces one vertex of a sub-tetrahedron
+// by a point strictly inside a face or edge of it, which keeps every sub-tetrahedron positively
+// oriented for any position of the cut nodes inside their faces and edges: a mid node can slide
+// with the blade without re-meshing and without ever inverting an element.
+//
+// Opening the crack (the paper's virtual nodes, §4.1): a crack face is a sub-tetrahedron face whose
+// three vertices are cut nodes. Around each cut node the sub-tetrahedra that contain it are grouped
+// by face adjacency that does not cross a crack face; each group references its own real copy of
+// the node. While the cut surface does not yet surround a node, its sub-tetrahedra form one group
+// and the crack stays closed there; when the blade has passed, the groups separate. This re-points
+// exactly the elements on one side, as the virtual nodes do, without a search outside the star of
+// the node.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "cutting/blade_sweep.hpp"
+#include "cutting/cut_state.hpp"
+#include "cutting/mesh.hpp"
+
+namespace scalpel {
+
+struct CutOptions {
+  // Cut nodes are kept this far (relative) from the vertices of their edge or face, so no element
+  // degenerates into a zero-volume sliver (DESIGN §6). Edge parameter t is clamped to
+  // [min_edge_param, 1 - min_edge_param]; face barycentrics to at least min_face_bary.
+  double min_edge_param = 1e-3;
+  double min_face_bary = 1e-3;
+};
+
+// What one tool sample did.
+struct CutStepStats {
+  std::size_t edges_cut = 0;           // forward crossings that split an edge
+  std::size_t backward_crossings = 0;  // crossings by the blunt side (Eq. 1): registered, not cut
+  std::size_t recrossed_edges = 0;     // crossings of an edge already cut (recursive case, §6)
+  std::size_t face_pierces = 0;        // entry nodes created
+  std::size_t tets_created = 0;
+  std::size_t tets_removed = 0;
+  std::size_t nodes_created = 0;
+  std::size_t transitions = 0;  // coarse tetrahedra whose state changed
+  std::size_t tets_touched = 0;  // coarse tetrahedra the sweep touched
+};
+
+struct CutTotals {
+  std::size_t steps = 0;
+  std::size_t edges_cut = 0, backward_crossings = 0, recrossed_edges = 0, face_pierces = 0;
+  std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
+  std::size_t coarse_tets_cut = 0;
+  std::map<std::string, std::size_t> transitions;  // "A0->B0": count
+  void add(const CutStepStats& s);
+};
+
+class CutEngine {
+ public:
+  // The mesh as it is now becomes the coarse mesh. The engine keeps a reference to `mesh`.
+  explicit CutEngine(TetMesh& mesh, CutOptions options = {});
+  ~CutEngine();
+  CutEngine(const CutEngine&) = delete;
+  CutEngine& operator=(const CutEngine&) = delete;
+
+  // Places the blade without cutting (the first sample of a session, or after the tool jumped).
+  void place(const BladePose& pose);
+  // Sweeps the blade from its last pose to `pose` and applies every event (§3 pseudo code).
+  CutStepStats step(const BladePose& pose);
+  // Call after the tissue model moved nodes: refits the collision structure to current positions.
+  void refit();
+
+  [[nodiscard]] const CutTotals& totals() const { return totals_; }
+  [[nodiscard]] const TetMesh& coarse() const { return coarse_; }
+  // The state of a coarse tetrahedron (by slot): topology in local labels, or empty topology.
+  [[nodiscard]] CutTopology topology(std::uint32_t coarse_slot) const;
+  [[nodiscard]] std::string state_label_of(std::uint32_t coarse_slot) const;
+  // The coarse tetrahedron a live tetrahedron belongs to (itself if never cut).
+  [[nodiscard]] std::uint32_t coarse_of(TetId live) const;
+  // Number of live sub-tetrahedra per cut coarse tetrahedron, for statistics.
+  [[nodiscard]] std::vector<std::size_t> subdivision_sizes() const;
+  // Nodes whose rest position changed in the last step (mid nodes that slid with the blade); the
+  // tissue model must refresh the rest data of their elements.
+  [[nodiscard]] const std::vector<NodeId>& moved_nodes() const { return moved_nodes_; }
+  // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
+  [[nodiscard]] double cut_surface_area() const;
+
+ private:
+  struct CutNode;
+  struct CoarseTet;
+  using GNode = std::uint64_t;  // corner: node slot; cut node: kCutBit | cut node index
+  static constexpr GNode kCutBit = GNode{1} << 63;
+
+  std::uint32_t edge_node(std::uint32_t a, std::uint32_t b) const;
+  std::uint32_t face_node(const std::map<std::array<std::uint32_t, 3>, std::uint32_t>& map,
+                          const std::array<std::uint32_t, 3>& key) const;
+  void place_cut_node(std::uint32_t id);
+  void update_face_position(std::uint32_t id);
+  CutTopology compute_topology(std::uint32_t coarse_slot) const;
+  void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
+  void regroup(std::uint32_t cut_id);
+  void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
+  std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
+  bool is_crack_face(GNode a, GNode b, GNode c) const;
+
+  TetMesh& mesh_;
+  TetMesh coarse_;
+  std::size_t coarse_nodes_;
+  CutOptions options_;
+  std::unique_ptr<BladeSweep> sweep_;
+  SweepResult sweep_result_;
+  BladePose blade_{};
+  bool placed_ = false;
+
+  std::vector<CutNode> cut_nodes_;
+  std::map<std::array<std::uint32_t, 3>, std::uint32_t> edge_nodes_;   // key {a, b, kInvalidIndex}, a < b
+  std::map<std::array<std::uint32_t, 3>, std::uint32_t> mid_nodes_;    // key: sorted face slots
+  std::map<std::array<std::uint32_t, 3>, std::uint32_t> entry_nodes_;  // key: sorted face slots
+  std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
+  std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
+  std::vector<NodeId> moved_nodes_;
+  CutTotals totals_;
+};
+
+}  // namespace scalpel
