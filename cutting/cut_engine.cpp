@@ -555,7 +555,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const auto& c : sweep_result_.crossings) {
     const Key3 k = sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]);
     if (!crossing_now.insert(k).second) continue;
-    const Vec3 w = clamp_interior(face_bary(k, c.point), options_.min_face_bary);
+    const Vec3 sample = face_bary(k, c.point);
+    const Vec3 w = clamp_interior(sample, options_.min_face_bary);
     std::uint32_t id = face_node(mid_nodes_, k);
     if (id == kInvalidIndex) {
       id = new_cut_node(CutNode::Kind::Mid, k, w);
@@ -566,7 +567,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     if (n.copies.size() > 1) continue;  // already cut through; a second pass is the recursive case
     n.crossing = true;
     n.bary = w;
-    n.sample_sum += w;
+    n.sample_sum += sample;
     ++n.samples;
     positioned_faces.insert(k);
   }
