@@ -16,10 +16,10 @@ struct CutEngine::CutNode {
   Vec3 bary = Vec3::Zero();            // weights of the key nodes
   Vec3 sample_sum = Vec3::Zero();      // mid node: sum of sampled ENP barycentrics (§5.2)
   int samples = 0;
-  bool crossing = false;               // mid node: the blade crosses the face now
-  int entry_subtriangle = -1;          // mid node on a face with an entry node: which part holds it
-  Vec3 sheet_normal = Vec3::Zero();    // edge node: normal of the swept surface where it was cut
-  std::vector<NodeId> copies;          // real nodes; copies[g] serves group g
+  bool crossing = false;             // mid node: the blade crosses the face now
+  int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
+  Vec3 sheet_normal = Vec3::Zero();  // edge node: normal of the swept surface where it was cut
+  std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> group_of;  // (coarse, sub) -> group
 };
 
@@ -52,7 +52,9 @@ Key3 sorted_key(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
   return k;
 }
 
-Key3 edge_key(std::uint32_t a, std::uint32_t b) { return {std::min(a, b), std::max(a, b), kInvalidIndex}; }
+Key3 edge_key(std::uint32_t a, std::uint32_t b) {
+  return {std::min(a, b), std::max(a, b), kInvalidIndex};
+}
 
 // Barycentric coordinates of p in triangle (a, b, c), p assumed near its plane.
 Vec3 barycentric(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -82,13 +84,15 @@ int index_of(const std::array<std::uint64_t, 4>& t, std::uint64_t g) {
   return -1;
 }
 
-bool contains(const std::array<std::uint64_t, 4>& t, std::uint64_t g) { return index_of(t, g) >= 0; }
+bool contains(const std::array<std::uint64_t, 4>& t, std::uint64_t g) {
+  return index_of(t, g) >= 0;
+}
 
 // Stellar split of the sub-tetrahedron holding face {x, y, z} at a point inside that face: the
 // three copies replace one face vertex each by m, so each keeps a positive volume (its volume is
 // the barycentric weight of the replaced vertex times the parent's).
-void split_face(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t x, std::uint64_t y, std::uint64_t z,
-                std::uint64_t m) {
+void split_face(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t x, std::uint64_t y,
+                std::uint64_t z, std::uint64_t m) {
   for (size_t s = 0; s < subs.size(); ++s) {
     const auto t = subs[s];
     if (!contains(t, x) || !contains(t, y) || !contains(t, z)) continue;
@@ -111,7 +115,8 @@ void split_face(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t x
 }
 
 // Stellar split of every sub-tetrahedron holding edge {p, q} at a point inside it.
-void split_edge(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t p, std::uint64_t q, std::uint64_t x) {
+void split_edge(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t p, std::uint64_t q,
+                std::uint64_t x) {
   const size_t n = subs.size();
   for (size_t s = 0; s < n; ++s) {
     const int ip = index_of(subs[s], p), iq = index_of(subs[s], q);
@@ -242,7 +247,8 @@ void CutEngine::update_face_position(std::uint32_t id) {
       for (int i = 0; i < 3 && normal.squaredNorm() > 0; ++i) {
         const int j = (i + 1) % 3;
         if (start[i] > 0 && start[j] > 0) continue;  // the edge that was cut
-        const double di = normal.dot(p[static_cast<size_t>(i)] - x), dj = normal.dot(p[static_cast<size_t>(j)] - x);
+        const double di = normal.dot(p[static_cast<size_t>(i)] - x),
+                     dj = normal.dot(p[static_cast<size_t>(j)] - x);
         if ((di < 0) == (dj < 0) || di == dj) continue;
         const double t = di / (di - dj);
         Vec3 end = Vec3::Zero();
@@ -421,7 +427,8 @@ void CutEngine::regroup(std::uint32_t id) {
     n.copies.push_back(mesh_.add_interpolated_node(p));
   }
   n.group_of.clear();
-  for (std::uint32_t i = 0; i < items.size(); ++i) n.group_of[{items[i].coarse, items[i].sub}] = group_of_root[find(i)];
+  for (std::uint32_t i = 0; i < items.size(); ++i)
+    n.group_of[{items[i].coarse, items[i].sub}] = group_of_root[find(i)];
 }
 
 // Brings the live sub-tetrahedra of one coarse tetrahedron in line with its subdivision and the
@@ -516,7 +523,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   // Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
   std::vector<const EdgeCut*> edges;
   for (const auto& e : sweep_result_.edges) edges.push_back(&e);
-  std::stable_sort(edges.begin(), edges.end(), [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
+  std::stable_sort(edges.begin(), edges.end(),
+                   [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
   std::vector<Key3> new_edges;
   for (const EdgeCut* e : edges) {
     const Key3 k = edge_key(e->a, e->b);
@@ -662,7 +670,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 
 #ifdef SCALPEL_VALIDATE
   const auto report = validate(mesh_);
-  if (!report.ok()) throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
+  if (!report.ok())
+    throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
 #endif
   return stats;
 }
@@ -687,7 +696,8 @@ double CutEngine::cut_surface_area() const {
         if (!is_crack_face(face[0], face[1], face[2])) continue;
         std::sort(face.begin(), face.end());
         if (!seen.insert(face).second) continue;
-        area += 0.5 * (position(face[1]) - position(face[0])).cross(position(face[2]) - position(face[0])).norm();
+        area +=
+            0.5 * (position(face[1]) - position(face[0])).cross(position(face[2]) - position(face[0])).norm();
       }
   return area;
 }

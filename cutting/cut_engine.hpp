@@ -56,7 +56,7 @@ struct CutStepStats {
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
   std::size_t nodes_created = 0;
-  std::size_t transitions = 0;  // coarse tetrahedra whose state changed
+  std::size_t transitions = 0;   // coarse tetrahedra whose state changed
   std::size_t tets_touched = 0;  // coarse tetrahedra the sweep touched
 };
 

@@ -33,14 +33,16 @@ Perm4 Perm4::inverse() const {
 bool Perm4::odd() const {
   int inversions = 0;
   for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) inversions += p[static_cast<size_t>(i)] > p[static_cast<size_t>(j)] ? 1 : 0;
+    for (int j = i + 1; j < 4; ++j)
+      inversions += p[static_cast<size_t>(i)] > p[static_cast<size_t>(j)] ? 1 : 0;
   return inversions % 2 == 1;
 }
 
 int edge_index(int a, int b) {
   if (a > b) std::swap(a, b);
   for (int e = 0; e < 6; ++e)
-    if (kEdgeVertices[static_cast<size_t>(e)][0] == a && kEdgeVertices[static_cast<size_t>(e)][1] == b) return e;
+    if (kEdgeVertices[static_cast<size_t>(e)][0] == a && kEdgeVertices[static_cast<size_t>(e)][1] == b)
+      return e;
   return -1;
 }
 
@@ -92,22 +94,35 @@ EdgeClass edge_class(std::uint8_t mask) {
   const int max_deg = *std::max_element(deg.begin(), deg.end());
   const int touched = static_cast<int>(std::count_if(deg.begin(), deg.end(), [](int d) { return d > 0; }));
   switch (n) {
-    case 0: return EdgeClass::None;
-    case 1: return EdgeClass::One;
-    case 2: return max_deg == 2 ? EdgeClass::TwoAdjacent : EdgeClass::TwoOpposite;
+    case 0:
+      return EdgeClass::None;
+    case 1:
+      return EdgeClass::One;
+    case 2:
+      return max_deg == 2 ? EdgeClass::TwoAdjacent : EdgeClass::TwoOpposite;
     case 3:
       if (max_deg == 3) return EdgeClass::ThreeAroundVertex;
       return touched == 3 ? EdgeClass::ThreeOnFace : EdgeClass::ThreePath;
-    case 4: return max_deg == 2 ? EdgeClass::FourLoop : EdgeClass::FourNotLoop;
-    case 5: return EdgeClass::Five;
-    default: return EdgeClass::Six;
+    case 4:
+      return max_deg == 2 ? EdgeClass::FourLoop : EdgeClass::FourNotLoop;
+    case 5:
+      return EdgeClass::Five;
+    default:
+      return EdgeClass::Six;
   }
 }
 
 const char* edge_class_name(EdgeClass c) {
-  static constexpr const char* kNames[] = {"none",        "one edge",    "two adjacent", "two opposite",
-                                           "three around a vertex", "three on a face", "three as a path",
-                                           "four as a loop",        "four not a loop", "five",
+  static constexpr const char* kNames[] = {"none",
+                                           "one edge",
+                                           "two adjacent",
+                                           "two opposite",
+                                           "three around a vertex",
+                                           "three on a face",
+                                           "three as a path",
+                                           "four as a loop",
+                                           "four not a loop",
+                                           "five",
                                            "six"};
   return kNames[static_cast<int>(c)];
 }

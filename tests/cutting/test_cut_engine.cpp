@@ -13,7 +13,9 @@ using namespace scalpel;
 namespace {
 
 // A vertical blade at x = `x`, from z = 1.5 (back) down to z = -0.5 (tip), at y.
-BladePose vertical_blade(double x, double y) { return {Vec3(x, y, 1.5), Vec3(x, y, -0.5), Vec3::Zero()}; }
+BladePose vertical_blade(double x, double y) {
+  return {Vec3(x, y, 1.5), Vec3(x, y, -0.5), Vec3::Zero()};
+}
 
 void require_valid(const TetMesh& m, double volume) {
   const auto r = validate(m, {.reference_volume = volume});
@@ -50,4 +52,102 @@ TEST_CASE("a planar through-cut separates a box into two exact halves") {
       CHECK((hi <= x + 1e-12 || lo >= x - 1e-12));
     }
   }
+}
+
+namespace {
+
+// Area of the opened crack: boundary faces whose vertices all lie (rest) in the plane x = x0,
+// halved because each side has its own copy.
+double open_crack_area(const TetMesh& m, double x0) {
+  double area = 0;
+  for (const auto& f : boundary_faces(m)) {
+    const auto& r = m.rest_positions();
+    bool in_plane = true;
+    for (const auto n : f.nodes) in_plane &= std::abs(r[n].x() - x0) < 1e-12;
+    if (in_plane) area += 0.5 * (r[f.nodes[1]] - r[f.nodes[0]]).cross(r[f.nodes[2]] - r[f.nodes[0]]).norm();
+  }
+  return area / 2;
+}
+
+}  // namespace
+
+TEST_CASE("the cut surface opens behind the blade at every step (invariant 6)") {
+  TetMesh mesh = make_box({.cells = {4, 4, 4}});
+  CutEngine cutter(mesh);
+  const double x = 0.37, h = 0.25;  // cell size: the blade is inside tetrahedra one cell wide
+  cutter.place(vertical_blade(x, -0.5));
+  for (int k = 1; k <= 110; ++k) {
+    const double y = -0.5 + 0.01 * k;
+    const auto stats = cutter.step(vertical_blade(x, y));
+    require_valid(mesh, 1.0);
+    // Every edge crossed forward so far is split: none of them is left whole in the mesh.
+    CHECK(stats.recrossed_edges == 0);
+    const double swept = std::clamp(y, 0.0, 1.0);  // swept area inside the unit box
+    const double open = open_crack_area(mesh, x);
+    CHECK(open <= swept + 1e-12);
+    CHECK(open >= swept - 2 * h);
+  }
+  // The incision stopped at y = 0.6: the box holds together, and ahead of the blade nothing opened.
+  CHECK(connected_components(mesh).count() == 1);
+  for (const auto& f : boundary_faces(mesh)) {
+    const auto& r = mesh.rest_positions();
+    bool in_plane = true;
+    double ymin = 1e9;
+    for (const auto n : f.nodes) {
+      in_plane &= std::abs(r[n].x() - x) < 1e-12;
+      ymin = std::min(ymin, r[n].y());
+    }
+    if (in_plane) CHECK(ymin <= 0.6 + 1e-12);
+  }
+}
+
+TEST_CASE("a curved incision (an arc) keeps the mesh valid and separates the box") {
+  TetMesh mesh = make_box({.cells = {5, 5, 3}, .split = CubeSplit::Five});
+  CutEngine cutter(mesh);
+  const Vec3 centre(0.5, -0.4, 0);
+  const double radius = 0.9;
+  auto blade = [&](double angle) {
+    const Vec3 p = centre + radius * Vec3(std::cos(angle), std::sin(angle), 0);
+    return BladePose{Vec3(p.x(), p.y(), 1.5), Vec3(p.x(), p.y(), -0.5), Vec3::Zero()};
+  };
+  // From the right side (x > 1) to the left (x < 0) across the box, counter-clockwise.
+  const double a0 = 0.2, a1 = 3.14159 - 0.2;
+  cutter.place(blade(a0));
+  for (int k = 1; k <= 300; ++k) {
+    cutter.step(blade(a0 + (a1 - a0) * k / 300));
+    require_valid(mesh, 1.0);
+  }
+  const auto comps = connected_components(mesh);
+  REQUIRE(comps.count() == 2);
+  CHECK(std::abs(comps.rest_volume[0] + comps.rest_volume[1] - 1.0) < 1e-12);
+  CHECK(cutter.totals().edges_cut > 0);
+}
+
+TEST_CASE("a scalpel entering the top surface from above pierces faces before cutting edges") {
+  TetMesh mesh = make_box({.cells = {4, 4, 4}});
+  CutEngine cutter(mesh);
+  // A blade tilted 30 degrees from vertical in the yz plane, tip first, 0.3 long.
+  const Vec3 along = Vec3(0, -std::sin(0.5236), std::cos(0.5236)) * 0.3;  // from tip to back
+  auto blade = [&](const Vec3& tip) { return BladePose{tip + along, tip, Vec3::Zero()}; };
+  Vec3 tip(0.37, 0.3, 1.1);
+  cutter.place(blade(tip));
+  std::size_t pierces_before_first_edge = 0;
+  bool edge_seen = false;
+  int k = 0;
+  auto advance = [&](const Vec3& d, int n) {
+    for (int i = 0; i < n; ++i, ++k) {
+      tip += d;
+      const auto s = cutter.step(blade(tip));
+      if (!edge_seen) pierces_before_first_edge += s.face_pierces;
+      edge_seen |= s.edges_cut > 0;
+      require_valid(mesh, 1.0);
+    }
+  };
+  advance(Vec3(0, 0.002, -0.01), 30);  // descend to z = 0.8
+  advance(Vec3(0, 0.01, 0), 40);       // draw the incision along +y
+  advance(Vec3(0, 0.002, 0.01), 40);   // lift out
+  CHECK(pierces_before_first_edge >= 1);
+  CHECK(cutter.totals().face_pierces >= 2);
+  CHECK(cutter.totals().edges_cut > 0);
+  CHECK(connected_components(mesh).count() == 1);
 }
