@@ -94,8 +94,8 @@ class LineReader {
     }
   }
   // Like next_line, but a missing line is an error about `field`.
-  void require_line(const std::string& field, const std::string& what) {
-    if (!next_line()) fail(field, "unexpected end of file, expected " + what);
+  void require_line(std::string_view field, std::string_view what) {
+    if (!next_line()) fail(field, "unexpected end of file, expected " + std::string(what));
   }
   bool at_end() const { return at_end_; }
   bool blank() const {
@@ -118,37 +118,37 @@ class LineReader {
     return r;
   }
 
-  long long read_int(const std::string& field) {
+  long long read_int(std::string_view field) {
     const std::string_view t = token();
     if (t.empty()) fail(field, "missing value (line ends early)");
     long long v = 0;
     if (!parse_int(t, v)) fail(field, "expected an integer, found " + quoted(t));
     return v;
   }
-  long long read_int(const std::string& field, long long lo, long long hi) {
+  long long read_int(std::string_view field, long long lo, long long hi) {
     const long long v = read_int(field);
     if (v < lo || v > hi)
       fail(field,
            std::to_string(v) + " is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
     return v;
   }
-  double read_double(const std::string& field) {
+  double read_double(std::string_view field) {
     const std::string_view t = token();
     if (t.empty()) fail(field, "missing value (line ends early)");
     double v = 0;
     if (!parse_double(t, v)) fail(field, "expected a finite number, found " + quoted(t));
     return v;
   }
-  void expect_line_end(const std::string& field) {
+  void expect_line_end(std::string_view field) {
     const std::string_view t = token();
     if (!t.empty()) fail(field, "unexpected extra value " + quoted(t));
   }
 
-  [[noreturn]] void fail(const std::string& field, const std::string& message) const {
-    throw InputError(file_, line_no_, line_.empty() ? 0 : token_column_, field, message);
+  [[noreturn]] void fail(std::string_view field, const std::string& message) const {
+    throw InputError(file_, line_no_, line_.empty() ? 0 : token_column_, std::string(field), message);
   }
-  [[noreturn]] void fail_line(const std::string& field, const std::string& message) const {
-    throw InputError(file_, line_no_, 0, field, message);
+  [[noreturn]] void fail_line(std::string_view field, const std::string& message) const {
+    throw InputError(file_, line_no_, 0, std::string(field), message);
   }
 
  private:
@@ -294,10 +294,15 @@ void expect_end(LineReader& r, const std::string& name, const std::string& count
 }
 
 // Reads the next line of a section; a '$' line there means the section ended before its count.
-void section_line(LineReader& r, const std::string& count_field, const std::string& what) {
-  if (!r.next_line()) r.fail_line(count_field, "unexpected end of file, expected " + what);
-  if (!r.line().empty() && r.line().front() == '$')
-    r.fail_line(count_field, "section ends early, expected " + what);
+// The item is described as "what", or "what i of n" when n >= 0 (i 0-based).
+void section_line(LineReader& r, std::string_view count_field, std::string_view what, long long i = 0,
+                  long long n = -1) {
+  const bool ok = r.next_line();
+  if (ok && (r.line().empty() || r.line().front() != '$')) return;
+  std::string item(what);
+  if (n >= 0) item += " " + std::to_string(i + 1) + " of " + std::to_string(n);
+  if (!ok) r.fail_line(count_field, "unexpected end of file, expected " + item);
+  r.fail_line(count_field, "section ends early, expected " + item);
 }
 
 void read_physical_names(LineReader& r, std::map<int, std::string>& names) {
@@ -325,7 +330,7 @@ void read_nodes_v2(LineReader& r, GmshNodes& nodes) {
   nodes.points.reserve(static_cast<std::size_t>(count));
   nodes.lines.reserve(static_cast<std::size_t>(count));
   for (long long i = 0; i < count; ++i) {
-    section_line(r, "$Nodes count", "node " + std::to_string(i + 1) + " of " + std::to_string(count));
+    section_line(r, "$Nodes count", "node", i, count);
     nodes.tags.push_back(r.read_int("node tag", 1, kMaxCount * 4));
     Vec3 x;
     x.x() = r.read_double("node x");
@@ -343,7 +348,7 @@ void read_elements_v2(LineReader& r, GmshElements& el) {
   const long long count = r.read_int("$Elements count", 0, kMaxCount);
   r.expect_line_end("$Elements count");
   for (long long i = 0; i < count; ++i) {
-    section_line(r, "$Elements count", "element " + std::to_string(i + 1) + " of " + std::to_string(count));
+    section_line(r, "$Elements count", "element", i, count);
     (void)r.read_int("element tag", 1, kMaxCount * 4);
     const long long type = r.read_int("element type");
     if (type != kGmshTetrahedron) {
@@ -374,7 +379,7 @@ void read_entities_v41(LineReader& r, std::map<int, int>& volume_physical) {
   r.expect_line_end("$Entities count");
   for (int dim = 0; dim < 4; ++dim)
     for (long long i = 0; i < counts[static_cast<std::size_t>(dim)]; ++i) {
-      section_line(r, "$Entities count", "an entity of dimension " + std::to_string(dim));
+      section_line(r, "$Entities count", dim < 3 ? "an entity" : "a volume entity");
       if (dim < 3) continue;
       const long long tag = r.read_int("volume entity tag", 0, std::numeric_limits<int>::max());
       for (int k = 0; k < 6; ++k) (void)r.read_double("volume bounding box");
@@ -402,7 +407,7 @@ void read_nodes_v41(LineReader& r, GmshNodes& nodes) {
   nodes.lines.reserve(static_cast<std::size_t>(count));
   long long total = 0;
   for (long long b = 0; b < blocks; ++b) {
-    section_line(r, "$Nodes count", "node block " + std::to_string(b + 1) + " of " + std::to_string(blocks));
+    section_line(r, "$Nodes count", "node block", b, blocks);
     const long long dim = r.read_int("node block entity dimension", 0, 3);
     (void)r.read_int("node block entity tag");
     const long long parametric = r.read_int("node block parametric flag", 0, 1);
@@ -414,14 +419,13 @@ void read_nodes_v41(LineReader& r, GmshNodes& nodes) {
                   "node blocks hold more than the " + std::to_string(count) + " nodes counted");
     const std::size_t first = nodes.tags.size();
     for (long long i = 0; i < n; ++i) {
-      section_line(r, "node block size", "node tag " + std::to_string(i + 1) + " of " + std::to_string(n));
+      section_line(r, "node block size", "node tag", i, n);
       nodes.tags.push_back(r.read_int("node tag", 1, kMaxCount * 4));
       r.expect_line_end("node tag");
       nodes.lines.push_back(r.line_no());
     }
     for (long long i = 0; i < n; ++i) {
-      section_line(r, "node block size",
-                   "node coordinates " + std::to_string(i + 1) + " of " + std::to_string(n));
+      section_line(r, "node block size", "node coordinates", i, n);
       Vec3 x;
       x.x() = r.read_double("node x");
       x.y() = r.read_double("node y");
@@ -450,8 +454,7 @@ void read_elements_v41(LineReader& r, const std::map<int, int>* volume_physical,
   r.expect_line_end("$Elements count");
   long long total = 0;
   for (long long b = 0; b < blocks; ++b) {
-    section_line(r, "$Elements count",
-                 "element block " + std::to_string(b + 1) + " of " + std::to_string(blocks));
+    section_line(r, "$Elements count", "element block", b, blocks);
     const long long dim = r.read_int("element block entity dimension", 0, 3);
     const long long entity = r.read_int("element block entity tag", 0, std::numeric_limits<int>::max());
     const long long type = r.read_int("element block type");
@@ -472,7 +475,7 @@ void read_elements_v41(LineReader& r, const std::map<int, int>* volume_physical,
       physical = it->second;
     }
     for (long long i = 0; i < n; ++i) {
-      section_line(r, "element block size", "element " + std::to_string(i + 1) + " of " + std::to_string(n));
+      section_line(r, "element block size", "element", i, n);
       if (!keep) {
         ++el.skipped;
         continue;
