@@ -558,6 +558,7 @@ TetMesh read_gmsh(const std::string& path, MeshFileInfo* info) {
     if (name == "PhysicalNames") {
       read_physical_names(r, names);
     } else if (name == "Entities" && major == 4) {
+      if (have_elements) r.fail_line("$Entities", "must come before $Elements");
       have_entities = true;
       read_entities_v41(r, volume_physical);
     } else if (name == "Nodes") {

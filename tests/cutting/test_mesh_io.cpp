@@ -154,6 +154,36 @@ TEST_CASE("mesh_io re-orients negative tetrahedra and maps sparse node tags") {
   CHECK(m.total_rest_volume() == doctest::Approx(1.0 / 6.0 + 1.0 / 6.0));
 }
 
+TEST_CASE("mesh_io reads msh 4.1 entities, parametric node blocks and physical names") {
+  const std::string path =
+      write_scratch("entities41.msh",
+                    "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+                    "$PhysicalNames\n2\n2 3 \"skin surface\"\n3 7 \"liver lobe\"\n$EndPhysicalNames\n"
+                    "$Entities\n1 0 0 1\n"
+                    "1 0 0 0 0\n"
+                    "5 0 0 0 1 1 1 1 7 0\n"
+                    "$EndEntities\n"
+                    "$Nodes\n2 4 10 40\n"
+                    "0 1 0 1\n10\n0 0 0\n"
+                    "3 5 1 3\n20\n30\n40\n"
+                    "1 0 0 0.5 0.5 0.5\n0 1 0 0.1 0.2 0.3\n0 0 1 0.1 0.2 0.3\n"
+                    "$EndNodes\n"
+                    "$Elements\n2 2 1 2\n"
+                    "0 1 15 1\n1 10\n"
+                    "3 5 4 1\n2 10 20 30 40\n"
+                    "$EndElements\n");
+  MeshFileInfo info;
+  const TetMesh m = read_gmsh(path, &info);
+  CHECK(m.tet_count() == 1);
+  CHECK(m.node_count() == 4);
+  CHECK(info.skipped_elements == 1);
+  REQUIRE(info.regions.size() == 1);
+  CHECK(info.regions[0].tag == 7);
+  CHECK(info.region_id("liver lobe") == 0);
+  CHECK(info.region_id("skin surface") == -1);  // a surface group is not a region
+  CHECK(m.rest_volume(m.tets()[0]) == doctest::Approx(1.0 / 6.0));
+}
+
 TEST_CASE("mesh_io names file, line and field for malformed input") {
   struct Case {
     const char* file;
