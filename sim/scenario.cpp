@@ -175,7 +175,9 @@ class Parser {
   }
   // Fails with "<value> is out of range, expected <expected>" unless `ok`.
   void check(const Value& v, bool ok, const std::string& expected) const {
-    if (!ok) fail(v, describe(v.node) + " is out of range, expected " + expected);
+    if (!ok)
+      fail(v, (v.node.IsScalar() ? v.node.Scalar() : describe(v.node)) + " is out of range, expected " +
+                  expected);
   }
   double positive(const Value& v, double max = std::numeric_limits<double>::infinity()) const {
     const double x = number(v);
