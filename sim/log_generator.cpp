@@ -28,8 +28,10 @@ double wrap(double a) {
   return a;
 }
 
-double round_to(double x, double step) {
-  const double r = std::round(x / step) * step;
+// x rounded to a multiple of 1 / scale; dividing the integer by the exact power of ten gives the
+// double nearest the decimal, which prints short.
+double round_to(double x, double scale) {
+  const double r = std::round(x * scale) / scale;
   return r == 0.0 ? 0.0 : r;  // no "-0" in the log
 }
 
@@ -134,15 +136,14 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
     const Vec3 axis_world = std::cos(m.tilt) * up - std::sin(m.tilt) * forward;
     Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(blade_axis, axis_world).normalized();
     if (q.w() < 0) q.coeffs() = -q.coeffs();
-    q = Eigen::Quaterniond(round_to(q.w(), 1e-9), round_to(q.x(), 1e-9), round_to(q.y(), 1e-9),
-                           round_to(q.z(), 1e-9));
+    q = Eigen::Quaterniond(round_to(q.w(), 1e9), round_to(q.x(), 1e9), round_to(q.y(), 1e9),
+                           round_to(q.z(), 1e9));
     const Vec3 tip = path.point(s) + height * up;
     const Vec3 origin = tip - q * scenario.tool.blade_tip;
 
     ToolSample sample;
     sample.t = t;
-    sample.position =
-        Vec3(round_to(origin.x(), 1e-7), round_to(origin.y(), 1e-7), round_to(origin.z(), 1e-7));
+    sample.position = Vec3(round_to(origin.x(), 1e7), round_to(origin.y(), 1e7), round_to(origin.z(), 1e7));
     sample.orientation = q;
     out.push_back(sample);
   }

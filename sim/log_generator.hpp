@@ -23,7 +23,7 @@ struct IncisionMotion {
   double plunge_speed = 0.010;                  // [m/s] mean vertical speed entering and leaving
   double hold = 0.1;                            // [s] at rest before and after
   double depth = -1.0;                          // [m] tip depth; < 0: middle of the task's depth range
-  double corner_radius = 0.001;                 // [m] arc length over which the heading turns at a corner
+  double corner_radius = 0.002;                 // [m] arc length over which the heading turns at a corner
 };
 
 // The samples, at the scenario's haptic rate (device.rate). The skin surface is taken to face +z
