@@ -1,0 +1,281 @@
+#include "devices/pose_log.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+
+#include "cutting/input_error.hpp"
+
+namespace scalpel {
+
+namespace {
+
+constexpr std::array<std::string_view, 12> kColumns = {"t",  "x",  "y",       "z",  "qw", "qx",
+                                                       "qy", "qz", "buttons", "fx", "fy", "fz"};
+constexpr std::size_t kBaseColumns = 9;
+constexpr std::size_t kForceColumns = 12;
+constexpr std::string_view kHeaderText = "t,x,y,z,qw,qx,qy,qz,buttons";
+
+bool is_blank(char c) {
+  return c == ' ' || c == '\t';
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && is_blank(s.front())) s.remove_prefix(1);
+  while (!s.empty() && is_blank(s.back())) s.remove_suffix(1);
+  return s;
+}
+
+// One comma-separated field: its text and its 1-based column in the line.
+struct FieldText {
+  std::string_view text;
+  int column = 0;
+};
+
+// Splits `line` at commas into at most out.size() fields; returns the number of fields found
+// (which may exceed out.size(): the extra ones are counted, not stored).
+std::size_t split(std::string_view line, std::array<FieldText, kForceColumns + 1>& out) {
+  std::size_t count = 0, start = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    const std::size_t end = comma == std::string_view::npos ? line.size() : comma;
+    if (count < out.size()) out[count] = {trim(line.substr(start, end - start)), static_cast<int>(start) + 1};
+    ++count;
+    if (comma == std::string_view::npos) return count;
+    start = comma + 1;
+  }
+}
+
+enum class Parse { Ok, NotNumber, NotFinite };
+
+Parse parse_double(std::string_view s, double& out) {
+  if (s.size() > 1 && s.front() == '+') s.remove_prefix(1);
+  if (s.empty()) return Parse::NotNumber;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), out, std::chars_format::general);
+  if (ec != std::errc() || end != s.data() + s.size()) return Parse::NotNumber;
+  return std::isfinite(out) ? Parse::Ok : Parse::NotFinite;
+}
+
+// Appends the shortest text that reads back as exactly `v`.
+char* put(char* p, char* end, double v) {
+  return std::to_chars(p, end, v).ptr;
+}
+
+}  // namespace
+
+// ---- reader ---------------------------------------------------------------------------------------
+
+PoseLogReader::PoseLogReader(const std::string& path) : file_(path), in_(&file_), name_(path) {
+  if (!file_) throw InputError(path, 0, 0, "", "cannot open pose log");
+  read_preamble();
+}
+
+PoseLogReader::PoseLogReader(std::istream& in, std::string name) : in_(&in), name_(std::move(name)) {
+  read_preamble();
+}
+
+void PoseLogReader::fail(int column, std::string_view field, const std::string& message) const {
+  throw InputError(name_, line_, column, std::string(field), message);
+}
+
+bool PoseLogReader::read_line() {
+  if (!std::getline(*in_, line_text_)) {
+    if (in_->bad()) throw InputError(name_, line_ + 1, 0, "", "read error");
+    return false;
+  }
+  ++line_;
+  if (!line_text_.empty() && line_text_.back() == '\r') line_text_.pop_back();
+  return true;
+}
+
+std::optional<std::string> PoseLogReader::metadata(std::string_view key) const {
+  for (const auto& [k, v] : metadata_)
+    if (k == key) return v;
+  return std::nullopt;
+}
+
+void PoseLogReader::read_preamble() {
+  if (!read_line()) {
+    line_ = 1;
+    fail(0, "", "empty file, expected '" + std::string(kPoseLogMagic) + "'");
+  }
+  std::string_view first = line_text_;
+  if (first.substr(0, 3) == "\xEF\xBB\xBF") first.remove_prefix(3);  // UTF-8 byte order mark
+  constexpr std::string_view kPrefix = "# scalpelsim-log";
+  if (first.substr(0, kPrefix.size()) != kPrefix)
+    fail(1, "", "missing magic line '" + std::string(kPoseLogMagic) + "'");
+  const std::string_view version = trim(first.substr(kPrefix.size()));
+  if (version != "1") fail(1, "", "unsupported pose log version '" + std::string(version) + "', expected 1");
+
+  while (true) {
+    if (!read_line()) {
+      ++line_;
+      fail(0, "", "missing header '" + std::string(kHeaderText) + "'");
+    }
+    const std::string_view line = trim(line_text_);
+    if (line.empty()) continue;
+    if (line.front() == '#') {
+      const std::string_view body = line.substr(1);
+      const std::size_t colon = body.find(':');
+      if (colon == std::string_view::npos) continue;  // a comment
+      const std::string_view key = trim(body.substr(0, colon));
+      if (!key.empty()) metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
+      continue;
+    }
+    std::array<FieldText, kForceColumns + 1> fields;
+    const std::size_t count = split(line_text_, fields);
+    for (std::size_t i = 0; i < std::min(count, kForceColumns); ++i)
+      if (fields[i].text != kColumns[i])
+        fail(fields[i].column, kColumns[i],
+             "bad header: column " + std::to_string(i + 1) + " is '" + std::string(fields[i].text) +
+                 "', expected '" + std::string(kHeaderText) + "' optionally followed by ',fx,fy,fz'");
+    if (count != kBaseColumns && count != kForceColumns)
+      fail(count > kForceColumns ? fields[kForceColumns].column : 0,
+           count < kForceColumns ? kColumns[count] : "",
+           "bad header: " + std::to_string(count) + " columns, expected '" + std::string(kHeaderText) +
+               "' optionally followed by ',fx,fy,fz'");
+    has_force_ = count == kForceColumns;
+    return;
+  }
+}
+
+bool PoseLogReader::next(ToolSample& sample) {
+  std::string_view line;
+  do {
+    if (!read_line()) return false;
+    line = trim(line_text_);
+  } while (line.empty() || line.front() == '#');
+
+  std::array<FieldText, kForceColumns + 1> f;
+  const std::size_t expected = has_force_ ? kForceColumns : kBaseColumns;
+  const std::size_t count = split(line_text_, f);
+  if (count < expected)
+    fail(static_cast<int>(line_text_.size()) + 1, kColumns[count],
+         "expected " + std::to_string(expected) + " fields, found " + std::to_string(count));
+  if (count > expected)
+    fail(f[expected].column, "",
+         "expected " + std::to_string(expected) + " fields, found " + std::to_string(count));
+
+  std::array<double, kForceColumns> v{};
+  for (std::size_t i = 0; i < expected; ++i) {
+    if (i == 8) continue;  // buttons, below
+    switch (parse_double(f[i].text, v[i])) {
+      case Parse::Ok:
+        break;
+      case Parse::NotNumber:
+        fail(f[i].column, kColumns[i], "'" + std::string(f[i].text) + "' is not a number");
+      case Parse::NotFinite:
+        fail(f[i].column, kColumns[i], "'" + std::string(f[i].text) + "' is not finite");
+    }
+  }
+
+  if (any_sample_ && !(v[0] > last_t_))
+    fail(f[0].column, "t",
+         "time must increase strictly (previous sample at t = " + std::to_string(last_t_) + ")");
+
+  const double norm = std::sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]);
+  if (!(std::abs(norm - 1.0) <= kPoseLogUnitTolerance))
+    fail(f[4].column, "qw,qx,qy,qz",
+         "quaternion is not unit (norm " + std::to_string(norm) + ", tolerance 1e-6)");
+
+  // buttons: a non-negative integer bitmask of 32 bits.
+  std::string_view b = f[8].text;
+  std::uint64_t buttons = 0;
+  const auto [end, ec] = std::from_chars(b.data(), b.data() + b.size(), buttons);
+  if (b.empty() || ec == std::errc::invalid_argument || end != b.data() + b.size()) {
+    double d = 0.0;
+    if (!b.empty() && b.front() == '-')
+      fail(f[8].column, "buttons", "'" + std::string(b) + "' is negative, expected a bitmask >= 0");
+    if (parse_double(b, d) == Parse::Ok)
+      fail(f[8].column, "buttons", "'" + std::string(b) + "' is not an integer");
+    fail(f[8].column, "buttons", "'" + std::string(b) + "' is not a number");
+  }
+  if (ec == std::errc::result_out_of_range || buttons > std::numeric_limits<std::uint32_t>::max())
+    fail(f[8].column, "buttons", "'" + std::string(b) + "' does not fit in 32 bits");
+
+  sample.t = v[0];
+  sample.position = Eigen::Vector3d(v[1], v[2], v[3]);
+  sample.orientation = Eigen::Quaterniond(v[4], v[5], v[6], v[7]);
+  sample.buttons = static_cast<std::uint32_t>(buttons);
+  sample.force = has_force_ ? Eigen::Vector3d(v[9], v[10], v[11]) : Eigen::Vector3d::Zero();
+  last_t_ = v[0];
+  any_sample_ = true;
+  return true;
+}
+
+std::vector<ToolSample> read_pose_log(const std::string& path) {
+  PoseLogReader reader(path);
+  std::vector<ToolSample> samples;
+  ToolSample s;
+  while (reader.next(s)) samples.push_back(s);
+  return samples;
+}
+
+// ---- writer ---------------------------------------------------------------------------------------
+
+PoseLogWriter::PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force)
+    : file_(path, std::ios::binary | std::ios::trunc), out_(&file_), name_(path), with_force_(with_force) {
+  if (!file_) throw InputError(path, 0, 0, "", "cannot open pose log for writing");
+  write_preamble(metadata);
+}
+
+PoseLogWriter::PoseLogWriter(std::ostream& out, std::string name, const PoseLogMetadata& metadata,
+                             bool with_force)
+    : out_(&out), name_(std::move(name)), with_force_(with_force) {
+  write_preamble(metadata);
+}
+
+void PoseLogWriter::write_preamble(const PoseLogMetadata& metadata) {
+  *out_ << kPoseLogMagic << '\n';
+  for (const auto& [key, value] : metadata) {
+    const bool bad_key =
+        key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
+    if (bad_key || value.find_first_of("\r\n") != std::string::npos)
+      throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
+    *out_ << "# " << key << ": " << value << '\n';
+  }
+  *out_ << kHeaderText << (with_force_ ? ",fx,fy,fz" : "") << '\n';
+}
+
+void PoseLogWriter::write(const ToolSample& s) {
+  if (!is_valid(s, kPoseLogUnitTolerance))
+    throw std::invalid_argument(name_ + ": sample at t = " + std::to_string(s.t) +
+                                " is not finite or its quaternion is not unit");
+  if (count_ > 0 && !(s.t > last_t_))
+    throw std::invalid_argument(name_ + ": sample time " + std::to_string(s.t) + " does not increase");
+  // 12 shortest doubles (at most 24 characters each), a 32-bit integer and separators.
+  std::array<char, 12 * 25 + 16> buffer;
+  char* p = buffer.data();
+  char* const end = buffer.data() + buffer.size();
+  const double values[] = {s.t,
+                           s.position.x(),
+                           s.position.y(),
+                           s.position.z(),
+                           s.orientation.w(),
+                           s.orientation.x(),
+                           s.orientation.y(),
+                           s.orientation.z()};
+  for (const double v : values) {
+    p = put(p, end, v);
+    *p++ = ',';
+  }
+  p = std::to_chars(p, end, s.buttons).ptr;
+  if (with_force_)
+    for (int a = 0; a < 3; ++a) {
+      *p++ = ',';
+      p = put(p, end, s.force[a]);
+    }
+  *p++ = '\n';
+  out_->write(buffer.data(), p - buffer.data());
+  last_t_ = s.t;
+  ++count_;
+}
+
+void PoseLogWriter::flush() {
+  out_->flush();
+  if (!*out_) throw std::runtime_error(name_ + ": cannot write pose log");
+}
+
+}  // namespace scalpel

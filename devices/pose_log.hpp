@@ -1,0 +1,106 @@
+// Pose log: the recorded stream of tool samples, read by the mock device and written by the
+// recorder (DESIGN section 7).
+//
+//   # scalpelsim-log 1                      magic line, always first
+//   # device: hid                           metadata, "# key: value"
+//   t,x,y,z,qw,qx,qy,qz,buttons[,fx,fy,fz]  header
+//   0.001,0.01,0,0.005,1,0,0,0,0            one ToolSample per line
+//
+// t [s] strictly increasing; x, y, z [m]; (qw, qx, qy, qz) a unit quaternion tool -> world;
+// buttons a non-negative integer bitmask; fx, fy, fz [N] the force sent to the device. Numbers are
+// written in the shortest form that reads back to the same double, so record -> replay is exact.
+// Lines starting with '#' after the header are comments; empty lines are skipped.
+#pragma once
+
+#include <array>
+#include <fstream>
+#include <istream>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "devices/tool_sample.hpp"
+
+namespace scalpel {
+
+inline constexpr std::string_view kPoseLogMagic = "# scalpelsim-log 1";
+// Tolerance on |q| - 1 for the orientation of every sample.
+inline constexpr double kPoseLogUnitTolerance = 1e-6;
+
+// Metadata in file order: (key, value).
+using PoseLogMetadata = std::vector<std::pair<std::string, std::string>>;
+
+// Streams samples out of a pose log; every violation of the format is an InputError naming the
+// file, the line, the column and the field (column name).
+class PoseLogReader {
+ public:
+  // Opens `path` and reads the magic line, the metadata and the header.
+  explicit PoseLogReader(const std::string& path);
+  // Reads from `in`, which must outlive the reader; `name` names it in errors.
+  PoseLogReader(std::istream& in, std::string name);
+
+  // The next sample; false at the end of the input.
+  bool next(ToolSample& sample);
+
+  [[nodiscard]] const std::string& name() const { return name_; }
+  [[nodiscard]] const PoseLogMetadata& metadata() const { return metadata_; }
+  // The value of the first metadata entry with `key`, if any.
+  [[nodiscard]] std::optional<std::string> metadata(std::string_view key) const;
+  // True when the header has the force columns fx, fy, fz.
+  [[nodiscard]] bool has_force() const { return has_force_; }
+  // 1-based number of the line read last (the last sample after next() returned true).
+  [[nodiscard]] int line() const { return line_; }
+
+ private:
+  void read_preamble();
+  bool read_line();  // into line_text_; false at the end of the input
+  [[noreturn]] void fail(int column, std::string_view field, const std::string& message) const;
+
+  std::ifstream file_;
+  std::istream* in_;
+  std::string name_;
+  PoseLogMetadata metadata_;
+  bool has_force_ = false;
+  int line_ = 0;
+  std::string line_text_;
+  double last_t_ = 0.0;
+  bool any_sample_ = false;
+};
+
+// Writes a pose log: the magic line, the metadata and the header at construction, then one line per
+// write(). Output is buffered; flush() pushes it to the stream. write() formats into a fixed buffer
+// and does not allocate.
+class PoseLogWriter {
+ public:
+  // Creates (truncates) `path`; InputError if it cannot be opened.
+  PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force = false);
+  // Writes into `out`, which must outlive the writer; `name` names it in errors.
+  PoseLogWriter(std::ostream& out, std::string name, const PoseLogMetadata& metadata,
+                bool with_force = false);
+
+  // Throws std::invalid_argument for a sample the reader would reject (non-finite values, t not
+  // strictly increasing, quaternion not unit), so a written log always reads back.
+  void write(const ToolSample& sample);
+  // Throws std::runtime_error when the stream has failed.
+  void flush();
+
+  [[nodiscard]] std::size_t samples_written() const { return count_; }
+
+ private:
+  void write_preamble(const PoseLogMetadata& metadata);
+
+  std::ofstream file_;
+  std::ostream* out_;
+  std::string name_;
+  bool with_force_;
+  std::size_t count_ = 0;
+  double last_t_ = 0.0;
+};
+
+// Reads the whole log at `path`.
+[[nodiscard]] std::vector<ToolSample> read_pose_log(const std::string& path);
+
+}  // namespace scalpel

@@ -1,0 +1,175 @@
+#include "sim/log_generator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "cutting/input_error.hpp"
+
+namespace scalpel {
+
+namespace {
+
+// Minimum-jerk position profile on u in [0, 1] (Flash and Hogan 1985).
+double min_jerk(double u) {
+  u = std::clamp(u, 0.0, 1.0);
+  return u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
+}
+
+double smoothstep(double u) {
+  u = std::clamp(u, 0.0, 1.0);
+  return u * u * (3.0 - 2.0 * u);
+}
+
+// Angle difference wrapped to (-pi, pi].
+double wrap(double a) {
+  while (a > std::numbers::pi) a -= 2 * std::numbers::pi;
+  while (a <= -std::numbers::pi) a += 2 * std::numbers::pi;
+  return a;
+}
+
+// x rounded to a multiple of 1 / scale; dividing the integer by the exact power of ten gives the
+// double nearest the decimal, which prints short.
+double round_to(double x, double scale) {
+  const double r = std::round(x * scale) / scale;
+  return r == 0.0 ? 0.0 : r;  // no "-0" in the log
+}
+
+// The target path parametrised by arc length, with the heading (direction in the xy plane)
+// turning smoothly over +-radius around each corner.
+class Path {
+ public:
+  Path(const std::vector<Vec3>& points, double corner_radius) : p_(points) {
+    s_.push_back(0.0);
+    for (std::size_t i = 1; i < p_.size(); ++i) {
+      const Vec3 d = p_[i] - p_[i - 1];
+      s_.push_back(s_.back() + d.norm());
+      heading_.push_back(std::atan2(d.y(), d.x()));
+    }
+    for (std::size_t v = 0; v < p_.size(); ++v) {
+      double r = 0.0;
+      if (v > 0 && v + 1 < p_.size())
+        r = std::min({corner_radius, 0.25 * (s_[v] - s_[v - 1]), 0.25 * (s_[v + 1] - s_[v])});
+      radius_.push_back(r);
+    }
+  }
+
+  [[nodiscard]] double length() const { return s_.back(); }
+
+  [[nodiscard]] Vec3 point(double s) const {
+    const std::size_t j = segment(s);
+    const double u = (s - s_[j]) / (s_[j + 1] - s_[j]);
+    return p_[j] + std::clamp(u, 0.0, 1.0) * (p_[j + 1] - p_[j]);
+  }
+
+  // [rad] in the xy plane.
+  [[nodiscard]] double heading(double s) const {
+    const std::size_t j = segment(s);
+    for (const std::size_t v : {j, j + 1}) {
+      const double r = radius_[v];
+      if (r > 0.0 && std::abs(s - s_[v]) < r)
+        return heading_[v - 1] + wrap(heading_[v] - heading_[v - 1]) * smoothstep((s - s_[v] + r) / (2 * r));
+    }
+    return heading_[j];
+  }
+
+ private:
+  [[nodiscard]] std::size_t segment(double s) const {
+    const auto it = std::upper_bound(s_.begin(), s_.end(), s);
+    const std::size_t j = it == s_.begin() ? 0 : static_cast<std::size_t>(it - s_.begin()) - 1;
+    return std::min(j, s_.size() - 2);
+  }
+
+  std::vector<Vec3> p_;
+  std::vector<double> s_;        // arc length at each point
+  std::vector<double> heading_;  // per segment
+  std::vector<double> radius_;   // blend radius per point
+};
+
+double cut_depth(const Task& task, const IncisionMotion& m) {
+  return m.depth >= 0.0 ? m.depth : 0.5 * (task.depth_min + task.depth_max);
+}
+
+const Task& task_of(const Scenario& s) {
+  if (!s.task) throw InputError(s.file.string(), 0, 0, "task", "the scenario has no task to perform");
+  return *s.task;
+}
+
+}  // namespace
+
+std::vector<ToolSample> generate_task_log(const Scenario& scenario, const IncisionMotion& m) {
+  const Task& task = task_of(scenario);
+  const Path path(task.path, m.corner_radius);
+  const double depth = cut_depth(task, m);
+  const Vec3 up = Vec3::UnitZ();
+  const Vec3 blade_axis = (scenario.tool.blade_back - scenario.tool.blade_tip).normalized();  // tool frame
+
+  // Phase boundaries [s]: hold, plunge, cut, lift, hold.
+  const double t_plunge = m.hold;
+  const double d_plunge = (m.approach_height + depth) / m.plunge_speed;
+  const double t_cut = t_plunge + d_plunge;
+  const double d_cut = path.length() / m.cut_speed;
+  const double t_lift = t_cut + d_cut;
+  const double t_hold = t_lift + d_plunge;
+  const double t_end = t_hold + m.hold;
+
+  const double rate = scenario.device.rate;
+  const auto last = static_cast<long long>(std::ceil(t_end * rate));
+  std::vector<ToolSample> out;
+  out.reserve(static_cast<std::size_t>(last) + 1);
+  for (long long k = 0; k <= last; ++k) {
+    const double t = static_cast<double>(k) / rate;
+    double s = 0.0;       // arc length along the path
+    double height = 0.0;  // tip height above the path [m]
+    if (t < t_cut) {
+      height = m.approach_height - (m.approach_height + depth) * min_jerk((t - t_plunge) / d_plunge);
+    } else if (t < t_lift) {
+      s = path.length() * min_jerk((t - t_cut) / d_cut);
+      height = -depth;
+    } else {
+      s = path.length();
+      height = -depth + (m.approach_height + depth) * min_jerk((t - t_lift) / d_plunge);
+    }
+    const double theta = path.heading(s);
+    const Vec3 forward(std::cos(theta), std::sin(theta), 0.0);
+    // The blade leans back: its back point is above and behind the tip (DESIGN section 2).
+    const Vec3 axis_world = std::cos(m.tilt) * up - std::sin(m.tilt) * forward;
+    Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(blade_axis, axis_world).normalized();
+    if (q.w() < 0) q.coeffs() = -q.coeffs();
+    q = Eigen::Quaterniond(round_to(q.w(), 1e9), round_to(q.x(), 1e9), round_to(q.y(), 1e9),
+                           round_to(q.z(), 1e9));
+    const Vec3 tip = path.point(s) + height * up;
+    const Vec3 origin = tip - q * scenario.tool.blade_tip;
+
+    ToolSample sample;
+    sample.t = t;
+    sample.position = Vec3(round_to(origin.x(), 1e7), round_to(origin.y(), 1e7), round_to(origin.z(), 1e7));
+    sample.orientation = q;
+    out.push_back(sample);
+  }
+  return out;
+}
+
+PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion& m) {
+  const Task& task = task_of(scenario);
+  std::ostringstream motion;
+  motion << "tilt " << m.tilt * 180.0 / std::numbers::pi << " deg, depth " << cut_depth(task, m)
+         << " m, mean cut speed " << m.cut_speed << " m/s";
+  std::ostringstream rate;
+  rate << scenario.device.rate << " Hz";
+  return {{"generator", "scalpelsim make-log"},
+          {"scenario", scenario.name},
+          {"device", "mock"},
+          {"rate", rate.str()},
+          {"motion", motion.str()},
+          {"units", "t [s], x y z [m], quaternion tool->world (w, x, y, z)"}};
+}
+
+void write_task_log(const Scenario& scenario, const std::string& out_path) {
+  const auto samples = generate_task_log(scenario);
+  PoseLogWriter writer(out_path, task_log_metadata(scenario));
+  for (const auto& s : samples) writer.write(s);
+  writer.flush();
+}
+
+}  // namespace scalpel

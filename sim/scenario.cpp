@@ -1,0 +1,751 @@
+#include "sim/scenario.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <string_view>
+#include <utility>
+
+#include <yaml-cpp/yaml.h>
+
+#include "cutting/input_error.hpp"
+
+namespace scalpel {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Sanity bounds that catch millimetres written as metres and meshes too large to simulate.
+constexpr double kMaxLength = 1.0;          // [m] mesh extent, layer, depth
+constexpr int kMaxCellsPerAxis = 1000;      // hexahedral cells along one axis
+constexpr long long kMaxCells = 2'000'000;  // hexahedral cells of a generated mesh
+constexpr double kUnitTolerance = 1e-6;     // |q| - 1 of a rotation given as a quaternion
+
+SourceLocation location(const YAML::Mark& m) {
+  if (m.line < 0) return {};
+  return {m.line + 1, m.column + 1};
+}
+
+// A YAML value with its key path; `mark` is where the value is written (its key's position when
+// the value is empty), `key_mark` where its key is.
+struct Value {
+  YAML::Node node;
+  std::string path;
+  YAML::Mark mark;
+  YAML::Mark key_mark;
+};
+
+std::string describe(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Map:
+      return "a map";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Scalar:
+      return "'" + n.Scalar() + "'";
+    default:
+      return "nothing";
+  }
+}
+
+std::string join(const std::vector<std::string>& items) {
+  std::string s;
+  for (const auto& i : items) s += (s.empty() ? "" : ", ") + i;
+  return s;
+}
+
+class Parser;
+
+// The entries of a YAML map, checked for duplicate and (with only()) unknown keys.
+class Map {
+ public:
+  Map(const Parser& p, const Value& v);
+  // Every key must be one of `allowed`.
+  void only(std::initializer_list<std::string_view> allowed) const;
+  [[nodiscard]] std::optional<Value> get(std::string_view key) const;
+  [[nodiscard]] Value require(std::string_view key) const;
+  [[nodiscard]] bool has(std::string_view key) const { return get(key).has_value(); }
+  [[nodiscard]] const std::vector<std::pair<std::string, Value>>& entries() const { return entries_; }
+  [[nodiscard]] const Value& self() const { return self_; }
+
+ private:
+  const Parser& p_;
+  Value self_;
+  std::vector<std::pair<std::string, Value>> entries_;
+};
+
+class Parser {
+ public:
+  Parser(std::string file, fs::path base_dir) : file_(std::move(file)), base_dir_(std::move(base_dir)) {}
+
+  Scenario parse(const std::string& text) const;
+
+  [[noreturn]] void fail(const YAML::Mark& m, const std::string& path, const std::string& message) const {
+    const SourceLocation l = location(m);
+    throw InputError(file_, l.line, l.column, path, message);
+  }
+  [[noreturn]] void fail(const Value& v, const std::string& message) const { fail(v.mark, v.path, message); }
+
+  // ---- typed scalars -------------------------------------------------------------------------
+  double number(const Value& v) const {
+    if (!v.node.IsScalar()) fail(v, "expected a number, found " + describe(v.node));
+    std::string_view s = v.node.Scalar();
+    if (s.size() > 1 && s.front() == '+') s.remove_prefix(1);
+    double x = 0.0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x, std::chars_format::general);
+    if (s.empty() || ec != std::errc() || end != s.data() + s.size())
+      fail(v, "expected a number, found " + describe(v.node));
+    if (!std::isfinite(x)) fail(v, "expected a finite number, found " + describe(v.node));
+    return x;
+  }
+  int integer(const Value& v) const {
+    if (!v.node.IsScalar()) fail(v, "expected an integer, found " + describe(v.node));
+    std::string_view s = v.node.Scalar();
+    if (s.size() > 1 && s.front() == '+') s.remove_prefix(1);
+    int x = 0;
+    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
+    if (s.empty() || ec != std::errc() || end != s.data() + s.size())
+      fail(v, "expected an integer, found " + describe(v.node));
+    return x;
+  }
+  std::string string(const Value& v) const {
+    if (!v.node.IsScalar()) fail(v, "expected a text, found " + describe(v.node));
+    return v.node.Scalar();
+  }
+  bool boolean(const Value& v) const {
+    const std::string s = v.node.IsScalar() ? v.node.Scalar() : std::string();
+    if (s == "true" || s == "True") return true;
+    if (s == "false" || s == "False") return false;
+    fail(v, "expected true or false, found " + describe(v.node));
+  }
+  // One of `choices`; returns its index.
+  int choice(const Value& v, std::initializer_list<std::string_view> choices) const {
+    const std::string s = string(v);
+    int i = 0;
+    std::vector<std::string> names;
+    for (const auto c : choices) {
+      if (s == c) return i;
+      names.emplace_back(c);
+      ++i;
+    }
+    fail(v, "unknown value '" + s + "', expected one of: " + join(names));
+  }
+  std::vector<Value> list(const Value& v, const std::string& what) const {
+    if (!v.node.IsSequence()) fail(v, "expected " + what + ", found " + describe(v.node));
+    std::vector<Value> out;
+    int i = 0;
+    for (const auto& e : v.node) {
+      const std::string path = v.path + "[" + std::to_string(i++) + "]";
+      const YAML::Mark m = e.IsNull() || e.Mark().line < 0 ? v.mark : e.Mark();
+      out.push_back({e, path, m, m});
+    }
+    return out;
+  }
+  template <int N>
+  Eigen::Matrix<double, N, 1> vector(const Value& v) const {
+    const std::string what = "a list of " + std::to_string(N) + " numbers";
+    const auto items = list(v, what);
+    if (static_cast<int>(items.size()) != N)
+      fail(v, "expected " + what + ", found " + std::to_string(items.size()));
+    Eigen::Matrix<double, N, 1> x;
+    for (int i = 0; i < N; ++i) x[i] = number(items[static_cast<size_t>(i)]);
+    return x;
+  }
+  template <std::size_t N>
+  std::array<int, N> integers(const Value& v, int lo, int hi) const {
+    const std::string what = "a list of " + std::to_string(N) + " integers";
+    const auto items = list(v, what);
+    if (items.size() != N) fail(v, "expected " + what + ", found " + std::to_string(items.size()));
+    std::array<int, N> x{};
+    for (std::size_t i = 0; i < N; ++i) x[i] = in_range(items[i], integer(items[i]), lo, hi);
+    return x;
+  }
+  int in_range(const Value& v, int x, int lo, int hi) const {
+    if (x < lo || x > hi)
+      fail(v, std::to_string(x) + " is out of range, expected " + std::to_string(lo) + " to " +
+                  std::to_string(hi));
+    return x;
+  }
+  // Fails with "<value> is out of range, expected <expected>" unless `ok`.
+  void check(const Value& v, bool ok, const std::string& expected) const {
+    if (!ok)
+      fail(v, (v.node.IsScalar() ? v.node.Scalar() : describe(v.node)) + " is out of range, expected " +
+                  expected);
+  }
+  double positive(const Value& v, double max = std::numeric_limits<double>::infinity()) const {
+    const double x = number(v);
+    check(v, x > 0.0 && x <= max,
+          std::isinf(max) ? std::string("a value > 0") : "0 < value <= " + format(max));
+    return x;
+  }
+  static std::string format(double x) {
+    std::ostringstream s;
+    s << x;
+    return s.str();
+  }
+  fs::path resolve(const std::string& p) const {
+    const fs::path path(p);
+    return (path.is_absolute() ? path : base_dir_ / path).lexically_normal();
+  }
+
+  // ---- sections ------------------------------------------------------------------------------
+  void mesh(const Value& v, MeshSource& out) const;
+  void materials(const Value& v, Scenario& s) const;
+  void tissue(const Value& v, TissueSettings& out) const;
+  void fixed(const Value& v, std::vector<FixedSelector>& out) const;
+  void tool(const Value& v, ToolSettings& out) const;
+  void device(const Value& v, DeviceSettings& out) const;
+  void simulation(const Value& v, SimulationSettings& out) const;
+  Task task(const Value& v) const;
+  void check_against_mesh(const Scenario& s, const Map& top) const;
+
+ private:
+  std::string file_;
+  fs::path base_dir_;
+};
+
+Map::Map(const Parser& p, const Value& v) : p_(p), self_(v) {
+  if (!v.node.IsMap()) p.fail(v, "expected a map, found " + describe(v.node));
+  for (const auto& kv : v.node) {
+    const YAML::Mark key_mark = kv.first.Mark();
+    if (!kv.first.IsScalar()) p.fail(key_mark, v.path, "expected a plain key, found " + describe(kv.first));
+    const std::string key = kv.first.Scalar();
+    const std::string path = v.path.empty() ? key : v.path + "." + key;
+    if (get(key)) p.fail(key_mark, path, "duplicate key");
+    const YAML::Mark mark = kv.second.IsNull() || kv.second.Mark().line < 0 ? key_mark : kv.second.Mark();
+    entries_.emplace_back(key, Value{kv.second, path, mark, key_mark});
+  }
+}
+
+void Map::only(std::initializer_list<std::string_view> allowed) const {
+  for (const auto& [key, value] : entries_)
+    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+      std::vector<std::string> names(allowed.begin(), allowed.end());
+      p_.fail(value.key_mark, value.path, "unknown key, expected one of: " + join(names));
+    }
+}
+
+std::optional<Value> Map::get(std::string_view key) const {
+  for (const auto& [k, v] : entries_)
+    if (k == key) return v;
+  return std::nullopt;
+}
+
+Value Map::require(std::string_view key) const {
+  if (auto v = get(key)) return *v;
+  const std::string path = self_.path.empty() ? std::string(key) : self_.path + "." + std::string(key);
+  p_.fail(self_.key_mark, path, "missing required key");
+}
+
+// ---- mesh -----------------------------------------------------------------------------------------
+
+CubeSplit split_of(const Parser& p, const Map& m) {
+  const auto v = m.get("split");
+  if (!v) return CubeSplit::Six;
+  const int n = p.integer(*v);
+  if (n != 5 && n != 6) p.fail(*v, std::to_string(n) + " is out of range, expected 5 or 6");
+  return n == 5 ? CubeSplit::Five : CubeSplit::Six;
+}
+
+void Parser::mesh(const Value& v, MeshSource& out) const {
+  const Map m(*this, v);
+  out.where = location(v.key_mark);
+  const auto generator = m.get("generator");
+  const auto file = m.get("file");
+  if (generator && file) fail(file->key_mark, file->path, "give either 'generator' or 'file', not both");
+  if (!generator && !file) fail(v.key_mark, v.path, "missing key 'generator' (box or slab) or 'file'");
+
+  if (file) {
+    m.only({"file"});
+    const std::string name = string(*file);
+    const fs::path resolved = resolve(name);
+    std::string ext = resolved.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext != ".msh" && ext != ".node" && ext != ".ele" && ext != ".vtu")
+      fail(*file, "unsupported mesh file '" + name + "', expected .msh (Gmsh), .node/.ele (TetGen) or .vtu");
+    if (!fs::is_regular_file(resolved)) fail(*file, "mesh file not found: " + resolved.string());
+    out.kind = MeshKind::File;
+    out.file = resolved;
+    return;
+  }
+
+  const int kind = choice(*generator, {"box", "slab"});
+  const std::string max_length = format(kMaxLength);
+  if (kind == 0) {
+    m.only({"generator", "min", "max", "cells", "split", "region"});
+    out.kind = MeshKind::Box;
+    const Value vmin = m.require("min"), vmax = m.require("max"), vcells = m.require("cells");
+    out.box.min = vector<3>(vmin);
+    out.box.max = vector<3>(vmax);
+    for (int a = 0; a < 3; ++a) {
+      const double extent = out.box.max[a] - out.box.min[a];
+      if (!(extent > 0.0 && extent <= kMaxLength))
+        fail(vmax, "max - min = " + format(extent) + " on axis " + "xyz"[a] +
+                       ", expected 0 < max - min <= " + max_length + " [m]");
+    }
+    out.box.cells = integers<3>(vcells, 1, kMaxCellsPerAxis);
+    if (static_cast<long long>(out.box.cells[0]) * out.box.cells[1] * out.box.cells[2] > kMaxCells)
+      fail(vcells, "more than " + std::to_string(kMaxCells) + " cells");
+    out.box.split = split_of(*this, m);
+    out.box.region = 0;
+    if (const auto r = m.get("region")) {
+      out.box_region = string(*r);
+      if (out.box_region.empty()) fail(*r, "expected a region name");
+    }
+    return;
+  }
+
+  m.only({"generator", "size", "cells", "layers", "split"});
+  out.kind = MeshKind::Slab;
+  const Value vsize = m.require("size");
+  const auto size = vector<2>(vsize);
+  for (int a = 0; a < 2; ++a)
+    if (!(size[a] > 0.0 && size[a] <= kMaxLength))
+      fail(vsize,
+           "size " + format(size[a]) + " is out of range, expected 0 < size <= " + max_length + " [m]");
+  out.slab.size_x = size[0];
+  out.slab.size_y = size[1];
+  const Value vcells = m.require("cells");
+  out.slab.cells = integers<2>(vcells, 1, kMaxCellsPerAxis);
+  out.slab.split = split_of(*this, m);
+  const Value vlayers = m.require("layers");
+  const auto layers = list(vlayers, "a list of layers");
+  if (layers.empty()) fail(vlayers, "expected at least one layer");
+  long long layer_cells = 0;
+  double depth = 0.0;
+  out.slab.layers.clear();
+  for (const auto& lv : layers) {
+    const Map l(*this, lv);
+    l.only({"name", "thickness", "cells"});
+    SlabLayer layer;
+    const Value vname = l.require("name");
+    layer.name = string(vname);
+    if (layer.name.empty()) fail(vname, "expected a region name");
+    for (const auto& other : out.slab.layers)
+      if (other.name == layer.name) fail(vname, "duplicate layer name '" + layer.name + "'");
+    layer.thickness = positive(l.require("thickness"), kMaxLength);
+    layer.cells = in_range(l.require("cells"), integer(l.require("cells")), 1, kMaxCellsPerAxis);
+    layer_cells += layer.cells;
+    depth += layer.thickness;
+    out.slab.layers.push_back(layer);
+  }
+  if (depth > kMaxLength)
+    fail(vlayers, "total thickness " + format(depth) + " exceeds " + max_length + " [m]");
+  if (layer_cells * out.slab.cells[0] * out.slab.cells[1] > kMaxCells)
+    fail(vcells, "more than " + std::to_string(kMaxCells) + " cells");
+}
+
+// ---- materials ------------------------------------------------------------------------------------
+
+void Parser::materials(const Value& v, Scenario& s) const {
+  const Map m(*this, v);
+  if (m.entries().empty()) fail(v, "expected at least one region");
+  for (const auto& [region, rv] : m.entries()) {
+    const Map r(*this, rv);
+    r.only({"young", "poisson", "density", "damping", "prestress"});
+    RegionMaterial rm;
+    rm.region = region;
+    rm.where = location(rv.key_mark);
+    Material& mat = rm.material;
+    mat.young = positive(r.require("young"));
+    const Value vp = r.require("poisson");
+    mat.poisson = number(vp);
+    check(vp, mat.poisson > -1.0 && mat.poisson < 0.5, "-1 < poisson < 0.5");
+    if (const auto d = r.get("density")) mat.density = positive(*d);
+    if (const auto d = r.get("damping")) {
+      const Map dm(*this, *d);
+      dm.only({"mass", "stiffness"});
+      if (const auto a = dm.get("mass")) {
+        mat.damping_mass = number(*a);
+        check(*a, mat.damping_mass >= 0.0, "a value >= 0 [1/s]");
+      }
+      if (const auto b = dm.get("stiffness")) {
+        mat.damping_stiffness = number(*b);
+        check(*b, mat.damping_stiffness >= 0.0, "a value >= 0 [s]");
+      }
+    }
+    if (const auto p = r.get("prestress")) {
+      mat.prestress = number(*p);
+      check(*p, mat.prestress >= 1.0 && mat.prestress < 2.0, "1 <= prestress < 2");
+    }
+    s.materials.push_back(rm);
+  }
+}
+
+// ---- tissue, boundary, tool, device, simulation, task ------------------------------------------------
+
+void Parser::tissue(const Value& v, TissueSettings& out) const {
+  const Map m(*this, v);
+  m.only({"model", "rate", "solver", "gravity", "volume_springs"});
+  if (const auto x = m.get("model"))
+    out.model = choice(*x, {"corotational", "mass_spring"}) == 0 ? TissueModel::Corotational
+                                                                 : TissueModel::MassSpring;
+  if (const auto x = m.get("rate")) out.rate = positive(*x, 10000.0);
+  if (const auto x = m.get("solver")) {
+    const Map sm(*this, *x);
+    sm.only({"tolerance", "max_iterations"});
+    if (const auto t = sm.get("tolerance")) {
+      out.cg_tolerance = number(*t);
+      check(*t, out.cg_tolerance > 0.0 && out.cg_tolerance < 1.0, "0 < tolerance < 1");
+    }
+    if (const auto i = sm.get("max_iterations")) out.cg_max_iterations = in_range(*i, integer(*i), 1, 100000);
+  }
+  if (const auto x = m.get("gravity")) out.gravity = vector<3>(*x);
+  if (const auto x = m.get("volume_springs")) {
+    out.volume_springs = boolean(*x);
+    if (out.model != TissueModel::MassSpring)
+      fail(x->key_mark, x->path, "applies to model: mass_spring only");
+  }
+}
+
+void Parser::fixed(const Value& v, std::vector<FixedSelector>& out) const {
+  for (const auto& item : list(v, "a list of selectors ({side: ...} or {box: ...})")) {
+    const Map m(*this, item);
+    m.only({"side", "box"});
+    FixedSelector sel;
+    sel.where = location(item.mark);
+    const auto side = m.get("side");
+    const auto box = m.get("box");
+    if (side && box) fail(box->key_mark, box->path, "give either 'side' or 'box', not both");
+    if (side) {
+      sel.kind = FixedSelector::Kind::Side;
+      static constexpr Side kSides[] = {Side::ZMin, Side::ZMax, Side::XMin, Side::XMax,
+                                        Side::YMin, Side::YMax, Side::ZMin, Side::ZMax};
+      sel.side =
+          kSides[choice(*side, {"bottom", "top", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max"})];
+    } else if (box) {
+      sel.kind = FixedSelector::Kind::Box;
+      const Map bm(*this, *box);
+      bm.only({"min", "max"});
+      sel.min = vector<3>(bm.require("min"));
+      const Value vmax = bm.require("max");
+      sel.max = vector<3>(vmax);
+      if ((sel.max.array() < sel.min.array()).any()) fail(vmax, "expected max >= min on every axis");
+    } else {
+      fail(item.mark, item.path, "expected 'side' or 'box'");
+    }
+    out.push_back(sel);
+  }
+}
+
+void Parser::tool(const Value& v, ToolSettings& out) const {
+  const Map m(*this, v);
+  m.only({"name", "blade"});
+  if (const auto x = m.get("name")) out.name = string(*x);
+  if (const auto x = m.get("blade")) {
+    const Map b(*this, *x);
+    b.only({"back", "tip"});
+    out.blade_back = vector<3>(b.require("back"));
+    const Value vtip = b.require("tip");
+    out.blade_tip = vector<3>(vtip);
+    const double length = (out.blade_tip - out.blade_back).norm();
+    if (!(length > 0.0 && length <= 0.2))
+      fail(vtip, "blade length " + format(length) + " is out of range, expected 0 < length <= 0.2 [m]");
+  }
+}
+
+void Parser::device(const Value& v, DeviceSettings& out) const {
+  const Map m(*this, v);
+  m.only({"kind", "profile", "mapping", "rate", "queue_capacity"});
+  if (const auto x = m.get("kind")) {
+    static constexpr DeviceKind kKinds[] = {DeviceKind::Mock, DeviceKind::Hid, DeviceKind::Libusb,
+                                            DeviceKind::Mouse};
+    out.kind = kKinds[choice(*x, {"mock", "hid", "libusb", "mouse"})];
+  }
+  if (const auto x = m.get("profile")) out.profile = string(*x);
+  if (const auto x = m.get("rate")) {
+    out.rate = number(*x);
+    check(*x, out.rate >= 100.0 && out.rate <= 10000.0, "100 <= rate <= 10000 [Hz]");
+  }
+  if (const auto x = m.get("queue_capacity")) out.queue_capacity = in_range(*x, integer(*x), 16, 1 << 20);
+  if (const auto x = m.get("mapping")) {
+    const Map mm(*this, *x);
+    mm.only({"scale", "offset", "rotation"});
+    if (const auto s = mm.get("scale")) out.mapping.scale = positive(*s);
+    if (const auto o = mm.get("offset")) out.mapping.offset = vector<3>(*o);
+    if (const auto r = mm.get("rotation")) {
+      if (r->node.IsSequence()) {
+        const Eigen::Vector4d q = vector<4>(*r);
+        if (!(std::abs(q.norm() - 1.0) <= kUnitTolerance))
+          fail(*r, "quaternion [w, x, y, z] has norm " + format(q.norm()) + ", expected 1 (tolerance 1e-6)");
+        out.mapping.rotation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+      } else if (r->node.IsMap()) {
+        const Map am(*this, *r);
+        am.only({"axis", "angle_deg"});
+        const Value vaxis = am.require("axis");
+        const Vec3 axis = vector<3>(vaxis);
+        if (!(axis.norm() > 0.0)) fail(vaxis, "expected a non-zero axis");
+        const double angle = number(am.require("angle_deg")) * std::numbers::pi / 180.0;
+        out.mapping.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(angle, axis.normalized()));
+      } else {
+        fail(*r, "expected a quaternion [w, x, y, z] or {axis: [x, y, z], angle_deg: a}, found " +
+                     describe(r->node));
+      }
+    }
+  }
+}
+
+void Parser::simulation(const Value& v, SimulationSettings& out) const {
+  const Map m(*this, v);
+  m.only({"visual_rate", "duration"});
+  if (const auto x = m.get("visual_rate")) out.visual_rate = positive(*x, 1000.0);
+  if (const auto x = m.get("duration")) out.duration = positive(*x);
+}
+
+Task Parser::task(const Value& v) const {
+  const Map m(*this, v);
+  m.only({"path", "tolerance", "depth"});
+  Task t;
+  t.where = location(v.key_mark);
+  const Value vpath = m.require("path");
+  const auto points = list(vpath, "a list of points [x, y, z]");
+  if (points.size() < 2) fail(vpath, "expected at least 2 points");
+  for (const auto& p : points) {
+    t.path.push_back(vector<3>(p));
+    if (t.path.size() > 1 && t.path[t.path.size() - 2] == t.path.back())
+      fail(p, "repeats the previous point");
+  }
+  if (const auto x = m.get("tolerance")) t.tolerance = positive(*x, 0.1);
+  const Value vdepth = m.require("depth");
+  const auto depth = vector<2>(vdepth);
+  t.depth_min = depth[0];
+  t.depth_max = depth[1];
+  if (!(depth[0] >= 0.0 && depth[0] < depth[1] && depth[1] <= kMaxLength))
+    fail(vdepth, "expected [min, max] with 0 <= min < max <= " + format(kMaxLength) + " [m]");
+  return t;
+}
+
+// Checks that need the mesh: region names, and a task inside a generated mesh.
+void Parser::check_against_mesh(const Scenario& s, const Map& top) const {
+  if (s.mesh.kind == MeshKind::File) return;
+  std::vector<int> ids;
+  for (const auto& [name, id] : generated_region_ids(s)) ids.push_back(id);
+  (void)resolve_materials(s, generated_region_ids(s), ids);
+
+  if (!s.task) return;
+  Vec3 lo, hi;
+  if (s.mesh.kind == MeshKind::Box) {
+    lo = s.mesh.box.min;
+    hi = s.mesh.box.max;
+  } else {
+    double depth = 0.0;
+    for (const auto& l : s.mesh.slab.layers) depth += l.thickness;
+    lo = Vec3(-s.mesh.slab.size_x / 2, -s.mesh.slab.size_y / 2, -depth);
+    hi = Vec3(s.mesh.slab.size_x / 2, s.mesh.slab.size_y / 2, 0.0);
+  }
+  const double tol = 1e-9 * (hi - lo).norm();
+  const Map task(*this, *top.get("task"));
+  const auto points = list(task.require("path"), "");
+  for (std::size_t i = 0; i < s.task->path.size(); ++i) {
+    const Vec3& p = s.task->path[i];
+    if (((p - lo).array() < -tol).any() || ((p - hi).array() > tol).any()) {
+      std::ostringstream msg;
+      msg << "point [" << p.x() << ", " << p.y() << ", " << p.z() << "] lies outside the mesh, which spans ["
+          << lo.x() << ", " << hi.x() << "] x [" << lo.y() << ", " << hi.y() << "] x [" << lo.z() << ", "
+          << hi.z() << "] [m]";
+      fail(points[i], msg.str());
+    }
+  }
+  if (s.task->depth_max > hi.z() - lo.z())
+    fail(*task.get("depth"), "maximum depth " + format(s.task->depth_max) + " exceeds the mesh height " +
+                                 format(hi.z() - lo.z()) + " [m]");
+}
+
+Scenario Parser::parse(const std::string& text) const {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    fail(e.mark, "", e.msg);
+  }
+  if (root.IsNull()) throw InputError(file_, 0, 0, "", "the scenario is empty");
+  const YAML::Mark root_mark = root.Mark();
+  const Map top(*this, Value{root, "", root_mark, root_mark});
+  top.only({"name", "description", "mesh", "materials", "tissue", "fixed", "tool", "device", "simulation",
+            "task", "log"});
+
+  Scenario s;
+  s.file = file_;
+  s.name = string(top.require("name"));
+  if (const auto x = top.get("description")) s.description = string(*x);
+  mesh(top.require("mesh"), s.mesh);
+  materials(top.require("materials"), s);
+  if (const auto x = top.get("tissue")) tissue(*x, s.tissue);
+  if (const auto x = top.get("fixed")) fixed(*x, s.fixed);
+  if (const auto x = top.get("tool")) tool(*x, s.tool);
+  if (const auto x = top.get("device")) device(*x, s.device);
+  if (const auto x = top.get("simulation")) simulation(*x, s.simulation);
+  if (const auto x = top.get("task")) s.task = task(*x);
+  if (const auto x = top.get("log")) {
+    const std::string p = string(*x);
+    if (p.empty()) fail(*x, "expected a file path");
+    s.log = resolve(p);
+  }
+  s.materials_where = location(top.require("materials").key_mark);
+  check_against_mesh(s, top);
+  return s;
+}
+
+std::string region_list(const RegionIds& names) {
+  std::vector<std::string> n;
+  for (const auto& [name, id] : names) n.push_back(name + " (" + std::to_string(id) + ")");
+  return n.empty() ? std::string("none named") : join(n);
+}
+
+}  // namespace
+
+// ---- public API --------------------------------------------------------------------------------------
+
+Scenario load_scenario(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), 0, 0, "", "cannot open scenario file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  Scenario s = parse_scenario(text.str(), path.string(), path.parent_path());
+  s.file = path;
+  return s;
+}
+
+Scenario parse_scenario(const std::string& text, const std::string& file_name, const fs::path& base_dir) {
+  return Parser(file_name, base_dir).parse(text);
+}
+
+TetMesh build_generated_mesh(const Scenario& s) {
+  switch (s.mesh.kind) {
+    case MeshKind::Box:
+      return make_box(s.mesh.box);
+    case MeshKind::Slab:
+      return make_slab(s.mesh.slab);
+    case MeshKind::File:
+      break;
+  }
+  throw std::logic_error("build_generated_mesh: the scenario's mesh is a file, " + s.mesh.file.string());
+}
+
+RegionIds generated_region_ids(const Scenario& s) {
+  RegionIds ids;
+  if (s.mesh.kind == MeshKind::Box) ids[s.mesh.box_region] = s.mesh.box.region;
+  if (s.mesh.kind == MeshKind::Slab)
+    for (std::size_t i = 0; i < s.mesh.slab.layers.size(); ++i)
+      ids[s.mesh.slab.layers[i].name] = static_cast<int>(i);
+  return ids;
+}
+
+std::map<int, Material> resolve_materials(const Scenario& s, const RegionIds& names,
+                                          const std::vector<int>& region_ids_in_mesh) {
+  const std::string file = s.file.string();
+  const std::set<int> in_mesh(region_ids_in_mesh.begin(), region_ids_in_mesh.end());
+  std::map<int, Material> out;
+  std::map<int, std::string> named_by;
+  for (const auto& rm : s.materials) {
+    const std::string field = "materials." + rm.region;
+    int id = -1;
+    if (const auto it = names.find(rm.region); it != names.end()) {
+      id = it->second;
+    } else if (constexpr std::string_view prefix = "region_"; rm.region.starts_with(prefix)) {
+      const char* first = rm.region.data() + prefix.size();
+      const char* last = rm.region.data() + rm.region.size();
+      const auto [end, ec] = std::from_chars(first, last, id);
+      if (ec != std::errc() || end != last || first == last) id = -1;
+    }
+    if (id < 0)
+      throw InputError(
+          file, rm.where.line, rm.where.column, field,
+          "no region of this name in the mesh; regions: " + region_list(names) + ", or region_<id>");
+    if (!in_mesh.count(id))
+      throw InputError(file, rm.where.line, rm.where.column, field,
+                       "region id " + std::to_string(id) + " does not occur in the mesh");
+    if (named_by.count(id))
+      throw InputError(
+          file, rm.where.line, rm.where.column, field,
+          "region " + std::to_string(id) + " already has a material, from materials." + named_by[id]);
+    named_by[id] = rm.region;
+    out[id] = rm.material;
+  }
+  for (const int id : in_mesh)
+    if (!out.count(id)) {
+      std::string label = "region_" + std::to_string(id);
+      for (const auto& [name, nid] : names)
+        if (nid == id) label = name;
+      throw InputError(file, s.materials_where.line, s.materials_where.column, "materials",
+                       "no material for region '" + label + "'");
+    }
+  return out;
+}
+
+std::map<int, Material> resolve_materials(const Scenario& s, const RegionIds& names, const TetMesh& mesh) {
+  std::set<int> ids;
+  for (const TetId t : mesh.tets()) ids.insert(mesh.region(t));
+  return resolve_materials(s, names, std::vector<int>(ids.begin(), ids.end()));
+}
+
+std::vector<NodeId> select_fixed_nodes(const Scenario& s, const TetMesh& mesh) {
+  const std::vector<NodeId> nodes = mesh.nodes();
+  if (nodes.empty()) return {};
+  Vec3 lo = mesh.rest(nodes.front()), hi = lo;
+  for (const NodeId n : nodes) {
+    lo = lo.cwiseMin(mesh.rest(n));
+    hi = hi.cwiseMax(mesh.rest(n));
+  }
+  const double tol = 1e-9 * (hi - lo).norm();
+  std::vector<std::uint8_t> fixed(mesh.node_capacity(), 0);
+  for (std::size_t i = 0; i < s.fixed.size(); ++i) {
+    const FixedSelector& sel = s.fixed[i];
+    int axis = 0;
+    double plane = 0.0;
+    if (sel.kind == FixedSelector::Kind::Side) {
+      axis = static_cast<int>(sel.side) / 2;
+      plane = static_cast<int>(sel.side) % 2 == 0 ? lo[axis] : hi[axis];
+    }
+    std::size_t count = 0;
+    for (const NodeId n : nodes) {
+      const Vec3& x = mesh.rest(n);
+      const bool hit = sel.kind == FixedSelector::Kind::Side
+                           ? std::abs(x[axis] - plane) <= tol
+                           : ((x - sel.min).array() >= -tol).all() && ((x - sel.max).array() <= tol).all();
+      if (hit) {
+        fixed[n.index] = 1;
+        ++count;
+      }
+    }
+    if (count == 0)
+      throw InputError(s.file.string(), sel.where.line, sel.where.column, "fixed[" + std::to_string(i) + "]",
+                       "selects no node of the mesh");
+  }
+  std::vector<NodeId> out;
+  for (const NodeId n : nodes)
+    if (fixed[n.index]) out.push_back(n);
+  return out;
+}
+
+const char* to_string(TissueModel m) {
+  return m == TissueModel::Corotational ? "corotational" : "mass_spring";
+}
+
+const char* to_string(DeviceKind k) {
+  switch (k) {
+    case DeviceKind::Mock:
+      return "mock";
+    case DeviceKind::Hid:
+      return "hid";
+    case DeviceKind::Libusb:
+      return "libusb";
+    case DeviceKind::Mouse:
+      return "mouse";
+  }
+  return "?";
+}
+
+const char* to_string(Side s) {
+  static constexpr const char* kNames[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
+  return kNames[static_cast<int>(s)];
+}
+
+}  // namespace scalpel

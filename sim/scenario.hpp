@@ -1,0 +1,163 @@
+// Scenario: the YAML file an instructor writes to set up an exercise (DESIGN section 7). The schema,
+// with every key, unit, range and default, is documented in config/scenarios/README.md.
+//
+// Every problem in the file (bad YAML, an unknown key, a wrong type, a missing required key, a value
+// out of range) is an InputError naming the file, the 1-based line and column, and the key path,
+// e.g. "skin.yaml:14:16: materials.dermis.poisson: 0.5 is out of range, expected -1 < poisson < 0.5".
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "cutting/generators.hpp"
+#include "cutting/mesh.hpp"
+#include "fem/material.hpp"
+
+namespace scalpel {
+
+// Where a value was written in the scenario file (1-based; 0 when unknown).
+struct SourceLocation {
+  int line = 0;
+  int column = 0;
+};
+
+enum class MeshKind { Box, Slab, File };
+
+struct MeshSource {
+  MeshKind kind = MeshKind::Slab;
+  BoxSpec box;                        // kind == Box; box.region is 0
+  std::string box_region = "tissue";  // kind == Box: the name of its single region
+  SlabSpec slab;                      // kind == Slab; region id = layer index
+  std::filesystem::path file;         // kind == File: .msh, .node, .ele or .vtu, resolved
+  SourceLocation where;               // of the `mesh` key
+};
+
+// The material of one region, as named under `materials`.
+struct RegionMaterial {
+  std::string region;
+  Material material;
+  SourceLocation where;  // of the region's key
+};
+
+enum class TissueModel { Corotational, MassSpring };
+
+struct TissueSettings {
+  TissueModel model = TissueModel::Corotational;
+  double rate = 60.0;                    // [Hz] tissue steps per second, time step 1 / rate
+  double cg_tolerance = 1e-6;            // [-] CG stops at |r| <= tolerance * |b|
+  int cg_max_iterations = 200;           // CG iterations per step
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
+  bool volume_springs = false;           // mass_spring only: add volume-preserving springs
+};
+
+// An axis-aligned face of the mesh's rest bounding box.
+enum class Side { XMin, XMax, YMin, YMax, ZMin, ZMax };
+
+// One boundary condition: the nodes on a side of the mesh, or inside a box, are fixed in place.
+struct FixedSelector {
+  enum class Kind { Side, Box };
+  Kind kind = Kind::Side;
+  Side side = Side::ZMin;   // kind == Side
+  Vec3 min = Vec3::Zero();  // kind == Box [m], rest positions, bounds included
+  Vec3 max = Vec3::Zero();
+  SourceLocation where;
+};
+
+// The scalpel blade is the segment from its back point to its tip in the tool frame (DESIGN
+// section 2); only its front (the side it moves towards) is sharp.
+struct ToolSettings {
+  std::string name = "scalpel";
+  Vec3 blade_back = Vec3(0.0, 0.0, 0.02);  // [m] tool frame
+  Vec3 blade_tip = Vec3::Zero();           // [m] tool frame
+};
+
+enum class DeviceKind { Mock, Hid, Libusb, Mouse };
+
+// Device space -> world: p_world = rotation * (scale * p_device) + offset; orientations are
+// composed with `rotation` (q_world = rotation * q_device).
+struct DeviceMapping {
+  double scale = 1.0;                                            // [-]
+  Vec3 offset = Vec3::Zero();                                    // [m]
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();  // unit
+};
+
+struct DeviceSettings {
+  DeviceKind kind = DeviceKind::Mock;
+  std::string profile;  // device profile name; empty: the kind's default
+  DeviceMapping mapping;
+  double rate = 1000.0;       // [Hz] haptic loop
+  int queue_capacity = 4096;  // tool samples between the haptic and the simulation thread
+};
+
+struct SimulationSettings {
+  double visual_rate = 60.0;       // [Hz] simulation frames per second
+  std::optional<double> duration;  // [s] stop after this long; none: when the input ends
+};
+
+// The target incision, used for scoring.
+struct Task {
+  std::vector<Vec3> path;    // [m] polyline on the tissue surface, >= 2 points
+  double tolerance = 0.002;  // [m] allowed distance of the cut from the path
+  double depth_min = 0.0;    // [m] accepted cut depth below the surface
+  double depth_max = 0.0;    // [m]
+  SourceLocation where;
+};
+
+struct Scenario {
+  std::filesystem::path file;  // the scenario file, as given
+  std::string name;
+  std::string description;
+  MeshSource mesh;
+  std::vector<RegionMaterial> materials;  // file order
+  SourceLocation materials_where;         // of the `materials` key
+  TissueSettings tissue;
+  std::vector<FixedSelector> fixed;
+  ToolSettings tool;
+  DeviceSettings device;
+  SimulationSettings simulation;
+  std::optional<Task> task;
+  std::optional<std::filesystem::path> log;  // default pose log, resolved
+};
+
+// Reads and checks a scenario file; relative paths in it are resolved against its folder.
+[[nodiscard]] Scenario load_scenario(const std::filesystem::path& path);
+// The same from text: `file_name` names it in errors, `base_dir` resolves relative paths.
+[[nodiscard]] Scenario parse_scenario(const std::string& text, const std::string& file_name,
+                                      const std::filesystem::path& base_dir);
+
+// The mesh of a generated scenario (mesh.kind Box or Slab) via make_box / make_slab.
+// Throws std::logic_error for a file mesh.
+[[nodiscard]] TetMesh build_generated_mesh(const Scenario& scenario);
+
+// Region name -> region id.
+using RegionIds = std::map<std::string, int>;
+
+// The region names of a generated mesh: slab layer i -> i, the box's region -> 0. Empty for a
+// file mesh.
+[[nodiscard]] RegionIds generated_region_ids(const Scenario& scenario);
+
+// The material of every region id in `region_ids_in_mesh`. A material's name resolves through
+// `names` (for file meshes e.g. Gmsh physical names supplied by the reader) and otherwise through
+// the form "region_<id>". InputError naming the `materials` key when a name matches no region,
+// two names resolve to one region, or a region of the mesh has no material.
+[[nodiscard]] std::map<int, Material> resolve_materials(const Scenario& scenario, const RegionIds& names,
+                                                        const std::vector<int>& region_ids_in_mesh);
+// The same for the regions of the tetrahedra of `mesh`.
+[[nodiscard]] std::map<int, Material> resolve_materials(const Scenario& scenario, const RegionIds& names,
+                                                        const TetMesh& mesh);
+
+// The nodes fixed by scenario.fixed, by their rest positions, sorted and unique. A side is matched
+// within 1e-9 of the bounding box diagonal. InputError naming `fixed[i]` for a selector that
+// selects no node.
+[[nodiscard]] std::vector<NodeId> select_fixed_nodes(const Scenario& scenario, const TetMesh& mesh);
+
+[[nodiscard]] const char* to_string(TissueModel m);
+[[nodiscard]] const char* to_string(DeviceKind k);
+[[nodiscard]] const char* to_string(Side s);
+
+}  // namespace scalpel

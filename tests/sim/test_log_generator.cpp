@@ -1,0 +1,141 @@
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <numbers>
+#include <string>
+
+#include "cutting/input_error.hpp"
+#include "devices/pose_log.hpp"
+#include "sim/log_generator.hpp"
+#include "sim/scenario.hpp"
+
+using namespace scalpel;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+Scenario bundled() {
+  return load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
+}
+
+Vec3 tip_of(const Scenario& s, const ToolSample& x) {
+  return x.position + x.orientation * s.tool.blade_tip;
+}
+Vec3 back_of(const Scenario& s, const ToolSample& x) {
+  return x.position + x.orientation * s.tool.blade_back;
+}
+
+}  // namespace
+
+TEST_CASE("log generator: the bundled log is reproducible byte for byte") {
+  const Scenario s = bundled();
+  REQUIRE(s.log.has_value());
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path out = dir / "skin_incision.csv";
+  write_task_log(s, out.string());
+  const std::string bundled_bytes = read_bytes(*s.log);
+  REQUIRE_FALSE(bundled_bytes.empty());
+  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision.yaml --out
+  // config/logs/skin_incision.csv
+  const std::string made = read_bytes(out);
+  // Report the first differing line rather than two whole files.
+  std::size_t line = 1;
+  const auto diff = std::mismatch(made.begin(), made.end(), bundled_bytes.begin(), bundled_bytes.end());
+  line += static_cast<std::size_t>(std::count(made.begin(), diff.first, '\n'));
+  INFO("first difference on line " << line);
+  CHECK(made.size() == bundled_bytes.size());
+  CHECK(diff.first == made.end());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("log generator: the bundled log is valid and performs the task") {
+  const Scenario s = bundled();
+  PoseLogReader reader(s.log->string());
+  CHECK(reader.metadata("generator") == "scalpelsim make-log");
+  CHECK(reader.metadata("scenario") == "skin_incision");
+  CHECK_FALSE(reader.has_force());
+  std::vector<ToolSample> log;
+  ToolSample x;
+  while (reader.next(x)) log.push_back(x);
+  // A few seconds at the haptic rate.
+  REQUIRE(log.size() > 2000);
+  CHECK(log.size() < 6000);
+  for (std::size_t k = 0; k < log.size(); ++k) CHECK(log[k].t == static_cast<double>(k) / s.device.rate);
+
+  // What was read is what the generator makes.
+  const auto made = generate_task_log(s);
+  REQUIRE(made.size() == log.size());
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    CHECK(made[k].position == log[k].position);
+    CHECK(made[k].orientation.coeffs() == log[k].orientation.coeffs());
+  }
+
+  const Task& task = *s.task;
+  const Vec3 start = task.path.front(), end = task.path.back();
+  const Vec3 dir = (end - start).normalized();
+  CHECK(tip_of(s, log.front()).z() > 0.002);  // starts above the surface
+  CHECK(tip_of(s, log.back()).z() > 0.002);   // and ends above it
+
+  bool entered = false;
+  double deepest = 0.0, max_cut_speed = 0.0, max_x = -1.0;
+  for (std::size_t k = 0; k < log.size(); ++k) {
+    const Vec3 tip = tip_of(s, log[k]), back = back_of(s, log[k]);
+    // Blade 30-45 degrees from vertical, back point above and behind the tip.
+    const Vec3 blade = back - tip;
+    const double tilt = std::acos(blade.normalized().z()) * 180.0 / std::numbers::pi;
+    CHECK(tilt >= 30.0);
+    CHECK(tilt <= 45.0);
+    CHECK(blade.dot(dir) < 0.0);
+    if (tip.z() < 0.0) {
+      if (!entered) CHECK((tip - start).head<2>().norm() < 1e-6);  // enters at the start of the path
+      entered = true;
+      CHECK(back.z() > 0.0);  // the blade spans the skin surface
+      CHECK(std::abs(tip.y() - start.y()) <= task.tolerance);
+      CHECK(tip.x() >= start.x() - task.tolerance);
+      CHECK(tip.x() <= end.x() + task.tolerance);
+      deepest = std::max(deepest, -tip.z());
+      max_x = std::max(max_x, tip.x());
+      if (k > 0 && tip_of(s, log[k - 1]).z() < -task.depth_min)
+        max_cut_speed = std::max(max_cut_speed, (tip - tip_of(s, log[k - 1])).norm() * s.device.rate);
+    }
+  }
+  CHECK(entered);
+  // Through epidermis and dermis, not into the fat.
+  CHECK(deepest >= task.depth_min);
+  CHECK(deepest <= task.depth_max);
+  CHECK(max_x == doctest::Approx(end.x()).epsilon(1e-6));
+  // A realistic drawing speed [m/s].
+  CHECK(max_cut_speed >= 0.010);
+  CHECK(max_cut_speed <= 0.020);
+}
+
+TEST_CASE("log generator: a polyline task turns the blade smoothly") {
+  Scenario s = bundled();
+  s.task->path = {Vec3(-0.008, -0.004, 0), Vec3(0.0, -0.004, 0), Vec3(0.004, 0.004, 0)};
+  const auto log = generate_task_log(s);
+  double max_step = 0.0;
+  for (std::size_t k = 1; k < log.size(); ++k)
+    max_step = std::max(max_step, log[k].orientation.angularDistance(log[k - 1].orientation));
+  CHECK(max_step < std::numbers::pi / 180.0);  // < 1 degree per millisecond: no jump at the corner
+  // The tip follows the polyline: it passes through the corner at the cutting depth.
+  double closest = 1.0;
+  for (const auto& x : log) closest = std::min(closest, (tip_of(s, x) - Vec3(0, -0.004, -0.00275)).norm());
+  CHECK(closest < 2e-5);
+}
+
+TEST_CASE("log generator: a scenario without a task is an error") {
+  Scenario s = bundled();
+  s.task.reset();
+  CHECK_THROWS_WITH_AS((void)generate_task_log(s), doctest::Contains("task"), InputError);
+}
