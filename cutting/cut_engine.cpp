@@ -131,7 +131,11 @@ void split_edge(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t p
 }  // namespace
 
 CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
-    : mesh_(mesh), coarse_(mesh), coarse_nodes_(mesh.node_capacity()), options_(options) {
+    : mesh_(mesh),
+      coarse_(mesh),
+      coarse_nodes_(mesh.node_capacity()),
+      options_(options),
+      table_(options.table ? *options.table : default_cut_table()) {
   sweep_ = std::make_unique<BladeSweep>(coarse_);
   live_to_coarse_.resize(mesh.tet_capacity());
   std::iota(live_to_coarse_.begin(), live_to_coarse_.end(), 0u);
@@ -164,7 +168,7 @@ CutTopology CutEngine::topology(std::uint32_t coarse_slot) const {
 std::string CutEngine::state_label_of(std::uint32_t coarse_slot) const {
   const auto it = cut_tets_.find(coarse_slot);
   if (it == cut_tets_.end()) return "O0";
-  return state_label(it->second.topology, it->second.complete);
+  return table_.label(it->second.topology, it->second.complete);
 }
 
 std::vector<std::size_t> CutEngine::subdivision_sizes() const {
@@ -312,33 +316,31 @@ CutTopology CutEngine::compute_topology(std::uint32_t t) const {
   return topo;
 }
 
-// The subdivision of one coarse tetrahedron (see the header): entry nodes, then mid nodes, then
-// edge nodes, each a stellar split. Face triangulations depend on face data only, so the two
-// tetrahedra of a face always agree.
+// The subdivision of one coarse tetrahedron: the table's program, run in the reference labels of the
+// canonical state (§4.2) through the absolute transformation, so symmetric states share one entry.
 void CutEngine::subdivide(std::uint32_t t, std::vector<std::array<GNode, 4>>& out) const {
   const auto& v = coarse_.tet_vertex_indices(t);
   out.assign(1, {v[0], v[1], v[2], v[3]});
-  for (int f = 0; f < 4; ++f) {
-    const auto fv = face_vertex_indices(coarse_, t, f);
+  const CanonicalState state = canonicalize(compute_topology(t));
+  const auto& p = state.transform.p;  // reference vertex i is local vertex p[i]
+  for (const CutInstruction& ins : table_.program) {
+    if (!ins.applies(state.reference)) continue;
+    if (ins.op == CutInstruction::Op::SplitEdge) {
+      const auto& ev = kEdgeVertices[ins.edge];
+      const std::uint32_t a = v[p[static_cast<size_t>(ev[0])]], b = v[p[static_cast<size_t>(ev[1])]];
+      split_edge(out, a, b, kCutBit | edge_node(a, b));
+      continue;
+    }
+    const auto fv = face_vertex_indices(coarse_, t, p[ins.face]);
     const Key3 k = sorted_key(fv[0], fv[1], fv[2]);
     const std::uint32_t entry = face_node(entry_nodes_, k), mid = face_node(mid_nodes_, k);
-    if (entry != kInvalidIndex) {
-      split_face(out, k[0], k[1], k[2], kCutBit | entry);
-      if (mid != kInvalidIndex) {
-        const int j = cut_nodes_[mid].entry_subtriangle;
-        std::array<GNode, 3> part{k[0], k[1], k[2]};
-        part[static_cast<size_t>(j)] = kCutBit | entry;
-        split_face(out, part[0], part[1], part[2], kCutBit | mid);
-      }
-    } else if (mid != kInvalidIndex) {
-      split_face(out, k[0], k[1], k[2], kCutBit | mid);
+    if (ins.op == CutInstruction::Op::SplitPart) {
+      std::array<GNode, 3> part{k[0], k[1], k[2]};
+      part[static_cast<size_t>(cut_nodes_[mid].entry_subtriangle)] = kCutBit | entry;
+      split_face(out, part[0], part[1], part[2], kCutBit | mid);
+    } else {
+      split_face(out, k[0], k[1], k[2], kCutBit | (ins.node == CutInstruction::Node::Entry ? entry : mid));
     }
-  }
-  for (int e = 0; e < 6; ++e) {
-    const auto& ev = kEdgeVertices[static_cast<size_t>(e)];
-    const std::uint32_t a = v[static_cast<size_t>(ev[0])], b = v[static_cast<size_t>(ev[1])];
-    const std::uint32_t x = edge_node(a, b);
-    if (x != kInvalidIndex) split_edge(out, a, b, kCutBit | x);
   }
 }
 
@@ -361,6 +363,17 @@ std::vector<std::uint32_t> CutEngine::coarse_tets_around(const std::array<std::u
     if (all) out.push_back(t);
   }
   std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
+    const std::array<std::uint32_t, 3>& key) const {
+  std::vector<Key3> out;
+  for (const std::uint32_t t : coarse_tets_around(key))
+    for (const std::uint32_t third : coarse_.tet_vertex_indices(t))
+      if (third != key[0] && third != key[1]) out.push_back(sorted_key(key[0], key[1], third));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 
@@ -482,6 +495,60 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
   c.live = std::move(live);
 }
 
+// Subdivides the affected coarse tetrahedra again, records their transitions, opens the crack
+// where the cut surface now surrounds a node, and updates the live mesh.
+void CutEngine::commit(const std::set<std::uint32_t>& affected, CutStepStats& stats) {
+  // Subdivide the affected tetrahedra again and record their transitions.
+  std::set<std::uint32_t> regroup_ids;
+  for (const std::uint32_t t : affected) {
+    auto [it, fresh] = cut_tets_.try_emplace(t);
+    CoarseTet& c = it->second;
+    if (fresh) {
+      const TetId live = mesh_.tet_handle(t);
+      c.live = {live};
+      c.real = {mesh_.tet_nodes(live)};
+      ++totals_.coarse_tets_cut;
+    }
+    const std::string before = table_.label(c.topology, c.complete);
+    c.topology = compute_topology(t);
+    subdivide(t, c.subs);
+    for (const auto& s : c.subs)
+      for (const GNode g : s)
+        if ((g & kCutBit) && cut_nodes_[static_cast<size_t>(g & ~kCutBit)].kind != CutNode::Kind::Entry)
+          regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
+    c.complete = false;
+    const std::string after = table_.label(c.topology, c.complete);
+    if (before != after) {
+      ++stats.transitions;
+      ++totals_.transitions[before + "->" + after];
+    }
+  }
+  // Completion: a cut tetrahedron none of whose faces the blade crosses any more is in an end state.
+  for (auto& [t, c] : cut_tets_) {
+    bool crossed = false;
+    for (int f = 0; f < 4 && !crossed; ++f) {
+      const auto fv = face_vertex_indices(coarse_, t, f);
+      const std::uint32_t id = face_node(mid_nodes_, sorted_key(fv[0], fv[1], fv[2]));
+      crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
+    }
+    if (!crossed && !c.complete && c.topology.edges != 0) {
+      const std::string before = table_.label(c.topology, false);
+      c.complete = true;
+      ++stats.transitions;
+      ++totals_.transitions[before + "->" + table_.label(c.topology, true)];
+    }
+  }
+
+  // Open the crack where the cut surface now surrounds a node.
+  std::set<std::uint32_t> rebuild = affected;
+  for (const std::uint32_t id : regroup_ids) {
+    regroup(id);
+    for (const std::uint32_t t : coarse_tets_around(cut_nodes_[id].key))
+      if (cut_tets_.count(t)) rebuild.insert(t);
+  }
+  for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
+}
+
 CutStepStats CutEngine::step(const BladePose& pose) {
   CutStepStats stats;
   moved_nodes_.clear();
@@ -589,18 +656,12 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 
   // Every face around a new cut edge carries the trace of the swept surface through it.
   for (const Key3& k : new_edges) {
-    const CutNode& en = cut_nodes_[edge_nodes_.at(k)];
-    for (const std::uint32_t t : coarse_tets_around(en.key)) {
-      affected.insert(t);
-      const auto& v = coarse_.tet_vertex_indices(t);
-      for (const std::uint32_t third : v) {
-        if (third == k[0] || third == k[1]) continue;
-        const Key3 fk = sorted_key(k[0], k[1], third);
-        positioned_faces.insert(fk);
-        if (face_node(mid_nodes_, fk) == kInvalidIndex) {
-          mid_nodes_.emplace(fk, new_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
-          changed_faces.insert(fk);
-        }
+    for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
+    for (const Key3& fk : faces_around_edge(k)) {
+      positioned_faces.insert(fk);
+      if (face_node(mid_nodes_, fk) == kInvalidIndex) {
+        mid_nodes_.emplace(fk, new_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
+        changed_faces.insert(fk);
       }
     }
   }
@@ -616,55 +677,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const Key3& k : changed_faces)
     for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
 
-  // Subdivide the affected tetrahedra again and record their transitions.
-  std::set<std::uint32_t> regroup_ids;
-  for (const std::uint32_t t : affected) {
-    auto [it, fresh] = cut_tets_.try_emplace(t);
-    CoarseTet& c = it->second;
-    if (fresh) {
-      const TetId live = mesh_.tet_handle(t);
-      c.live = {live};
-      c.real = {mesh_.tet_nodes(live)};
-      ++totals_.coarse_tets_cut;
-    }
-    const std::string before = state_label(c.topology, c.complete);
-    c.topology = compute_topology(t);
-    subdivide(t, c.subs);
-    for (const auto& s : c.subs)
-      for (const GNode g : s)
-        if ((g & kCutBit) && cut_nodes_[static_cast<size_t>(g & ~kCutBit)].kind != CutNode::Kind::Entry)
-          regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
-    c.complete = false;
-    const std::string after = state_label(c.topology, c.complete);
-    if (before != after) {
-      ++stats.transitions;
-      ++totals_.transitions[before + "->" + after];
-    }
-  }
-  // Completion: a cut tetrahedron none of whose faces the blade crosses any more is in an end state.
-  for (auto& [t, c] : cut_tets_) {
-    bool crossed = false;
-    for (int f = 0; f < 4 && !crossed; ++f) {
-      const auto fv = face_vertex_indices(coarse_, t, f);
-      const std::uint32_t id = face_node(mid_nodes_, sorted_key(fv[0], fv[1], fv[2]));
-      crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
-    }
-    if (!crossed && !c.complete && c.topology.edges != 0) {
-      const std::string before = state_label(c.topology, false);
-      c.complete = true;
-      ++stats.transitions;
-      ++totals_.transitions[before + "->" + state_label(c.topology, true)];
-    }
-  }
-
-  // Open the crack where the cut surface now surrounds a node.
-  std::set<std::uint32_t> rebuild = affected;
-  for (const std::uint32_t id : regroup_ids) {
-    regroup(id);
-    for (const std::uint32_t t : coarse_tets_around(cut_nodes_[id].key))
-      if (cut_tets_.count(t)) rebuild.insert(t);
-  }
-  for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
+  commit(affected, stats);
   stats.nodes_created = mesh_.node_count() - nodes_before;
   totals_.add(stats);
 
@@ -673,6 +686,68 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   if (!report.ok())
     throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
 #endif
+  return stats;
+}
+
+CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool complete) {
+  CutStepStats stats;
+  moved_nodes_.clear();
+  const std::size_t nodes_before = mesh_.node_count();
+  const auto& v = coarse_.tet_vertex_indices(t);
+  std::set<Key3> faces;
+  auto make = [&](std::map<Key3, std::uint32_t>& map, CutNode::Kind kind, const Key3& k, const Vec3& w) {
+    if (map.count(k)) return map.at(k);
+    CutNode n;
+    n.kind = kind;
+    n.key = k;
+    n.bary = w;
+    NodeParents p;
+    p.count = kind == CutNode::Kind::Edge ? 2 : 3;
+    for (int i = 0; i < p.count; ++i) {
+      p.parents[static_cast<size_t>(i)] = mesh_.node_handle(k[static_cast<size_t>(i)]);
+      p.weights[static_cast<size_t>(i)] = w[i];
+    }
+    n.copies.push_back(mesh_.add_interpolated_node(p));
+    cut_nodes_.push_back(std::move(n));
+    map.emplace(k, static_cast<std::uint32_t>(cut_nodes_.size() - 1));
+    return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
+  };
+  for (int e = 0; e < 6; ++e) {
+    if (!(local.edges & (1u << e))) continue;
+    const auto& ev = kEdgeVertices[static_cast<size_t>(e)];
+    const double param = 0.3 + 0.07 * e;
+    const Key3 k = edge_key(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]);
+    make(edge_nodes_, CutNode::Kind::Edge, k, Vec3(1 - param, param, 0));
+    for (const Key3& fk : faces_around_edge(k)) faces.insert(fk);
+  }
+  for (int f = 0; f < 4; ++f) {
+    const auto fv = face_vertex_indices(coarse_, t, f);
+    const Key3 k = sorted_key(fv[0], fv[1], fv[2]);
+    if (local.entries & (1u << f)) {
+      make(entry_nodes_, CutNode::Kind::Entry, k, Vec3(0.2, 0.35, 0.45));
+      ++stats.face_pierces;
+    }
+    if (local.faces & (1u << f)) faces.insert(k);
+  }
+  std::set<std::uint32_t> affected;
+  for (const Key3& k : faces) {
+    const std::uint32_t id = make(mid_nodes_, CutNode::Kind::Mid, k, Vec3(0.45, 0.3, 0.25));
+    CutNode& n = cut_nodes_[id];
+    if (n.samples == 0) {
+      n.sample_sum = n.bary;
+      n.samples = 1;
+    }
+    n.crossing = !complete;
+    update_face_position(id);
+  }
+  for (const Key3& k : faces)
+    for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
+  for (const auto& [k, id] : entry_nodes_)
+    for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
+  affected.insert(t);
+  commit(affected, stats);
+  stats.nodes_created = mesh_.node_count() - nodes_before;
+  totals_.add(stats);
   return stats;
 }
 

@@ -10,10 +10,11 @@
 // Face and edge data are shared by every tetrahedron that has the face or edge, so neighbours
 // always agree on how a face is triangulated (DESIGN §3).
 //
-// Subdivision rule (documented in config/cutting/subdivision.md): stellar splits in a fixed order,
-// entry nodes, then mid nodes, then edge nodes. Each split replaces one vertex of a sub-tetrahedron
-// by a point strictly inside a face or edge of it, which keeps every sub-tetrahedron positively
-// oriented for any position of the cut nodes inside their faces and edges: a mid node can slide
+// Subdivision rule: the program of the lookup-table script (config/cutting/state_machine.cut), run in
+// the reference labels of the tetrahedron's canonical state through its absolute transformation:
+// stellar splits, entry nodes, then mid nodes, then edge nodes. Each split replaces one vertex of a
+// sub-tetrahedron by a point strictly inside a face or edge of it, which keeps every sub-tetrahedron
+// positively oriented for any position of the cut nodes inside their faces and edges: a mid node can slide
 // with the blade without re-meshing and without ever inverting an element.
 //
 // Opening the crack (the paper's virtual nodes, §4.1): a crack face is a sub-tetrahedron face whose
@@ -29,12 +30,14 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
 #include "cutting/blade_sweep.hpp"
 #include "cutting/cut_state.hpp"
+#include "cutting/cut_table.hpp"
 #include "cutting/mesh.hpp"
 
 namespace scalpel {
@@ -45,6 +48,8 @@ struct CutOptions {
   // [min_edge_param, 1 - min_edge_param]; face barycentrics to at least min_face_bary.
   double min_edge_param = 1e-3;
   double min_face_bary = 1e-3;
+  // The state machine's table; null: the bundled config/cutting/state_machine.cut.
+  const CutTable* table = nullptr;
 };
 
 // What one tool sample did.
@@ -81,6 +86,11 @@ class CutEngine {
   void place(const BladePose& pose);
   // Sweeps the blade from its last pose to `pose` and applies every event (§3 pseudo code).
   CutStepStats step(const BladePose& pose);
+  // Puts coarse tetrahedron `coarse_slot` into a state without a blade (for the exhaustive table
+  // test and tools): its cut edges at fixed parameters, mid and entry nodes at fixed barycentric
+  // points; every face around a cut edge gains a mid node, as in a real cut. With `complete`, the
+  // blade counts as having left.
+  CutStepStats impose(std::uint32_t coarse_slot, const CutTopology& local, bool complete);
   // Call after the tissue model moved nodes: refits the collision structure to current positions.
   void refit();
 
@@ -114,13 +124,17 @@ class CutEngine {
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
   void regroup(std::uint32_t cut_id);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
+  void commit(const std::set<std::uint32_t>& affected, CutStepStats& stats);
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   bool is_crack_face(GNode a, GNode b, GNode c) const;
+  // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
+  std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
 
   TetMesh& mesh_;
   TetMesh coarse_;
   std::size_t coarse_nodes_;
   CutOptions options_;
+  const CutTable& table_;
   std::unique_ptr<BladeSweep> sweep_;
   SweepResult sweep_result_;
   BladePose blade_{};

@@ -127,11 +127,4 @@ const char* edge_class_name(EdgeClass c) {
   return kNames[static_cast<int>(c)];
 }
 
-std::string state_label(const CutTopology& t, bool complete) {
-  static constexpr char kLetters[] = {'O', 'A', 'B', 'G', 'D', 'H', 'C', 'E', 'I', 'J', 'K'};
-  std::string s(1, kLetters[static_cast<int>(edge_class(t.edges))]);
-  s += complete ? '3' : static_cast<char>('0' + std::min(2, __builtin_popcount(t.entries)));
-  return s;
-}
-
 }  // namespace scalpel

@@ -9,7 +9,6 @@
 
 #include <array>
 #include <cstdint>
-#include <string>
 
 namespace scalpel {
 
@@ -58,11 +57,5 @@ enum class EdgeClass : std::uint8_t {
 };
 [[nodiscard]] EdgeClass edge_class(std::uint8_t edge_mask);
 [[nodiscard]] const char* edge_class_name(EdgeClass c);
-
-// The label of a state in the paper's style: a letter for the edge topology (O none, A one edge,
-// B two adjacent, C three as a path, D three around a vertex (complete 1|3), E four as a loop
-// (complete 2|2), then G two opposite, H three on a face, I four not a loop, J five, K six) and a
-// digit: the number of entry nodes, or 3 when `complete` (the blade has left the tetrahedron).
-[[nodiscard]] std::string state_label(const CutTopology& t, bool complete);
 
 }  // namespace scalpel

@@ -13,9 +13,15 @@ namespace scalpel {
 
 namespace {
 
-constexpr std::uint16_t edge_bit(int e) { return static_cast<std::uint16_t>(1u << e); }
-constexpr std::uint16_t mid_bit(int f) { return static_cast<std::uint16_t>(1u << (8 + f)); }
-constexpr std::uint16_t entry_bit(int f) { return static_cast<std::uint16_t>(1u << (12 + f)); }
+constexpr std::uint16_t edge_bit(int e) {
+  return static_cast<std::uint16_t>(1u << e);
+}
+constexpr std::uint16_t mid_bit(int f) {
+  return static_cast<std::uint16_t>(1u << (8 + f));
+}
+constexpr std::uint16_t entry_bit(int f) {
+  return static_cast<std::uint16_t>(1u << (12 + f));
+}
 
 std::uint16_t condition_bits(const CutTopology& t) {
   return static_cast<std::uint16_t>(t.edges | (t.faces << 8) | (t.entries << 12));
@@ -58,7 +64,8 @@ class Parser {
       const std::string& kw = t[0].text;
       if (kw == "version") {
         expect_count(t, 2, "version N");
-        if (t[1].text != "1") fail(t[1], "version", "unsupported script version '" + t[1].text + "' (expected 1)");
+        if (t[1].text != "1")
+          fail(t[1], "version", "unsupported script version '" + t[1].text + "' (expected 1)");
         version_seen = true;
       } else if (!version_seen) {
         fail(t[0], "version", "the script must begin with 'version 1'");
@@ -79,8 +86,9 @@ class Parser {
     if (!version_seen) throw InputError(file_, 0, 0, "version", "empty script: expected 'version 1'");
     for (int c = 0; c < 11; ++c)
       if (table.class_letter[static_cast<size_t>(c)] == '\0')
-        throw InputError(file_, 0, 0, "class",
-                         std::string("no letter for the edge class '") + edge_class_name(static_cast<EdgeClass>(c)) + "'");
+        throw InputError(
+            file_, 0, 0, "class",
+            std::string("no letter for the edge class '") + edge_class_name(static_cast<EdgeClass>(c)) + "'");
     if (table.patterns.empty()) throw InputError(file_, 0, 0, "pattern", "at least one pattern is required");
     if (table.program.empty()) throw InputError(file_, 0, 0, "subdivide", "no subdivision program");
     return table;
@@ -96,7 +104,8 @@ class Parser {
   }
 
   int vertex(const Token& tok, char c) const {
-    if (c < 'A' || c > 'D') fail(tok, "label", "'" + tok.text + "' is not made of the vertex labels A, B, C, D");
+    if (c < 'A' || c > 'D')
+      fail(tok, "label", "'" + tok.text + "' is not made of the vertex labels A, B, C, D");
     return c - 'A';
   }
 
@@ -130,7 +139,9 @@ class Parser {
     }
     const auto c = static_cast<size_t>(edge_class(mask));
     if (table.class_letter[c] != '\0')
-      fail(t[1], "class", std::string("the class '") + edge_class_name(static_cast<EdgeClass>(c)) + "' already has a letter");
+      fail(
+          t[1], "class",
+          std::string("the class '") + edge_class_name(static_cast<EdgeClass>(c)) + "' already has a letter");
     for (const char other : table.class_letter)
       if (other == t[1].text[0]) fail(t[1], "class", "letter '" + t[1].text + "' is used twice");
     table.class_letter[c] = t[1].text[0];
@@ -146,8 +157,10 @@ class Parser {
         expect_count(t, 1, "end");
         return;
       }
-      if (t[0].text != "split") fail(t[0], "instruction", "unknown instruction '" + t[0].text + "' (expected split or end)");
-      if (t.size() < 6) fail(t.back(), "instruction", "incomplete instruction: 'split WHAT X at NODE X [when ...]'");
+      if (t[0].text != "split")
+        fail(t[0], "instruction", "unknown instruction '" + t[0].text + "' (expected split or end)");
+      if (t.size() < 6)
+        fail(t.back(), "instruction", "incomplete instruction: 'split WHAT X at NODE X [when ...]'");
       CutInstruction ins;
       ins.line = line_ + 1;
       const std::string& what = t[1].text;
@@ -155,12 +168,16 @@ class Parser {
       if (what == "face" || what == "part") {
         ins.op = what == "face" ? CutInstruction::Op::SplitFace : CutInstruction::Op::SplitPart;
         ins.face = static_cast<std::uint8_t>(parse_face(t[2]));
-        if (t[4].text == "entry") ins.node = CutInstruction::Node::Entry;
-        else if (t[4].text == "mid") ins.node = CutInstruction::Node::Mid;
-        else fail(t[4], "node", "a face splits at 'entry' or 'mid', not '" + t[4].text + "'");
+        if (t[4].text == "entry")
+          ins.node = CutInstruction::Node::Entry;
+        else if (t[4].text == "mid")
+          ins.node = CutInstruction::Node::Mid;
+        else
+          fail(t[4], "node", "a face splits at 'entry' or 'mid', not '" + t[4].text + "'");
         if (ins.op == CutInstruction::Op::SplitPart && ins.node != CutInstruction::Node::Mid)
           fail(t[4], "node", "a part splits at its face's mid node");
-        if (parse_face(t[5]) != ins.face) fail(t[5], "node", "the node must belong to the face that is split");
+        if (parse_face(t[5]) != ins.face)
+          fail(t[5], "node", "the node must belong to the face that is split");
         // A split needs its node; an entry part split needs both nodes of the face.
         ins.require |= ins.node == CutInstruction::Node::Entry ? entry_bit(ins.face) : mid_bit(ins.face);
         if (ins.op == CutInstruction::Op::SplitPart) ins.require |= entry_bit(ins.face);
@@ -169,7 +186,8 @@ class Parser {
         ins.node = CutInstruction::Node::Edge;
         ins.edge = static_cast<std::uint8_t>(parse_edge(t[2]));
         if (t[4].text != "node") fail(t[4], "node", "an edge splits at 'node', not '" + t[4].text + "'");
-        if (parse_edge(t[5]) != ins.edge) fail(t[5], "node", "the node must belong to the edge that is split");
+        if (parse_edge(t[5]) != ins.edge)
+          fail(t[5], "node", "the node must belong to the edge that is split");
         ins.require |= edge_bit(ins.edge);
       } else {
         fail(t[1], "instruction", "split 'face', 'part' or 'edge', not '" + what + "'");
@@ -180,7 +198,8 @@ class Parser {
       }
       table.program.push_back(ins);
     }
-    throw InputError(file_, static_cast<int>(lines_.size()), 0, "subdivide", "missing 'end' of the subdivision program");
+    throw InputError(file_, static_cast<int>(lines_.size()), 0, "subdivide",
+                     "missing 'end' of the subdivision program");
   }
 
   // cond := atom {"and" atom};  atom := ["not"] ("cut" EDGE | "mid" FACE | "entry" FACE)
@@ -194,10 +213,14 @@ class Parser {
       }
       if (i + 1 >= t.size()) fail(t[i < t.size() ? i : t.size() - 1], "condition", "incomplete condition");
       std::uint16_t bit = 0;
-      if (t[i].text == "cut") bit = edge_bit(parse_edge(t[i + 1]));
-      else if (t[i].text == "mid") bit = mid_bit(parse_face(t[i + 1]));
-      else if (t[i].text == "entry") bit = entry_bit(parse_face(t[i + 1]));
-      else fail(t[i], "condition", "expected cut, mid or entry, found '" + t[i].text + "'");
+      if (t[i].text == "cut")
+        bit = edge_bit(parse_edge(t[i + 1]));
+      else if (t[i].text == "mid")
+        bit = mid_bit(parse_face(t[i + 1]));
+      else if (t[i].text == "entry")
+        bit = entry_bit(parse_face(t[i + 1]));
+      else
+        fail(t[i], "condition", "expected cut, mid or entry, found '" + t[i].text + "'");
       (negate ? ins.forbid : ins.require) |= bit;
       if (ins.forbid & ins.require) fail(t[i], "condition", "the condition contradicts itself");
       i += 2;
@@ -236,7 +259,9 @@ std::string CutTable::label(const CutTopology& t, bool complete) const {
   return s;
 }
 
-CutTable parse_cut_table(const std::string& text, const std::string& file_name) { return Parser(text, file_name).parse(); }
+CutTable parse_cut_table(const std::string& text, const std::string& file_name) {
+  return Parser(text, file_name).parse();
+}
 
 CutTable load_cut_table(const std::string& path) {
   std::ifstream in(path);
@@ -270,9 +295,12 @@ std::string event_name(const CutEvent& e) {
       const auto& ev = kEdgeVertices[e.index];
       return std::string("cut ") + static_cast<char>('A' + ev[0]) + static_cast<char>('A' + ev[1]);
     }
-    case CutEvent::Kind::Pierce: return "pierce " + face(e.index);
-    case CutEvent::Kind::Cross: return "cross " + face(e.index);
-    case CutEvent::Kind::Leave: return "leave";
+    case CutEvent::Kind::Pierce:
+      return "pierce " + face(e.index);
+    case CutEvent::Kind::Cross:
+      return "cross " + face(e.index);
+    case CutEvent::Kind::Leave:
+      return "leave";
   }
   return "?";
 }
@@ -316,8 +344,8 @@ std::vector<MachineState> reachable_states(const CutTable& table) {
   std::vector<MachineState> out{{CutTopology{}, false}};
   std::deque<size_t> queue{0};
   auto key = [](const MachineState& s) {
-    return (static_cast<std::uint32_t>(s.topology.edges) << 9) | (s.topology.faces << 5) | (s.topology.entries << 1) |
-           (s.complete ? 1u : 0u);
+    return (static_cast<std::uint32_t>(s.topology.edges) << 9) | (s.topology.faces << 5) |
+           (s.topology.entries << 1) | (s.complete ? 1u : 0u);
   };
   std::map<std::uint32_t, size_t> seen{{key(out[0]), 0}};
   while (!queue.empty()) {

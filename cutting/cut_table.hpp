@@ -40,10 +40,10 @@ struct CutInstruction {
 };
 
 struct CutTable {
-  std::string source;                       // script path
-  std::array<char, 11> class_letter{};      // per EdgeClass
-  std::vector<std::uint8_t> patterns;       // representable maximal edge masks (reference labels)
-  std::vector<CutInstruction> program;      // the subdivision program
+  std::string source;                   // script path
+  std::array<char, 11> class_letter{};  // per EdgeClass
+  std::vector<std::uint8_t> patterns;   // representable maximal edge masks (reference labels)
+  std::vector<CutInstruction> program;  // the subdivision program
 
   // Representable by the basic machine: the mask, under some permutation, is a subset of a pattern.
   [[nodiscard]] bool representable(std::uint8_t edge_mask) const;
