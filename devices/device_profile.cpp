@@ -28,7 +28,8 @@ struct Ctx {
     throw InputError(file, known ? m.line + 1 : 0, known ? m.column + 1 : 0, key, msg);
   }
 
-  void keys(const YAML::Node& map, const std::string& where, std::initializer_list<const char*> allowed) const {
+  void keys(const YAML::Node& map, const std::string& where,
+            std::initializer_list<const char*> allowed) const {
     if (!map.IsMap()) fail(map, where, "expected a mapping");
     for (const auto& kv : map) {
       const std::string k = kv.first.as<std::string>();
@@ -68,7 +69,8 @@ struct Ctx {
     double v = 0.0;
     const char* end = s.data() + s.size();
     const auto [ptr, ec] = std::from_chars(s.data(), end, v);
-    if (ec != std::errc() || ptr != end || !std::isfinite(v)) fail(n, key, "expected a finite number, got '" + s + "'");
+    if (ec != std::errc() || ptr != end || !std::isfinite(v))
+      fail(n, key, "expected a finite number, got '" + s + "'");
     return v;
   }
 
@@ -91,8 +93,8 @@ FieldType parse_type(const Ctx& c, const YAML::Node& n, const std::string& key) 
 
 Axis parse_axis(const Ctx& c, const YAML::Node& n, const std::string& key, bool output) {
   static constexpr std::pair<const char*, Axis> kAxes[] = {
-      {"x", Axis::X},   {"y", Axis::Y},   {"z", Axis::Z},   {"rx", Axis::RX},           {"ry", Axis::RY},
-      {"rz", Axis::RZ}, {"qw", Axis::QW}, {"qx", Axis::QX}, {"qy", Axis::QY},           {"qz", Axis::QZ},
+      {"x", Axis::X},   {"y", Axis::Y},   {"z", Axis::Z},   {"rx", Axis::RX},          {"ry", Axis::RY},
+      {"rz", Axis::RZ}, {"qw", Axis::QW}, {"qx", Axis::QX}, {"qy", Axis::QY},          {"qz", Axis::QZ},
       {"fx", Axis::FX}, {"fy", Axis::FY}, {"fz", Axis::FZ}, {"buttons", Axis::Buttons}};
   const std::string s = c.str(n, key);
   for (const auto& [name, a] : kAxes) {
@@ -111,7 +113,8 @@ ReportLayout parse_layout(const Ctx& c, const YAML::Node& n, const std::string& 
   if (n["id"]) r.id = static_cast<std::uint8_t>(c.integer(n["id"], where + ".id", 0, 255));
   r.length = static_cast<std::size_t>(c.integer(c.need(n, "length", where), where + ".length", 1, 1024));
   const YAML::Node fields = c.need(n, "fields", where);
-  if (!fields.IsSequence() || fields.size() == 0) c.fail(fields, where + ".fields", "expected a non-empty list");
+  if (!fields.IsSequence() || fields.size() == 0)
+    c.fail(fields, where + ".fields", "expected a non-empty list");
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const YAML::Node f = fields[i];
     const std::string fw = where + ".fields[" + std::to_string(i) + "]";
@@ -252,8 +255,9 @@ std::size_t field_size(FieldType t) {
 }
 
 bool DeviceProfile::matches(std::uint16_t vendor_id, std::uint16_t product_id) const {
-  return std::any_of(match.begin(), match.end(),
-                     [&](const DeviceMatch& m) { return m.vendor_id == vendor_id && m.product_id == product_id; });
+  return std::any_of(match.begin(), match.end(), [&](const DeviceMatch& m) {
+    return m.vendor_id == vendor_id && m.product_id == product_id;
+  });
 }
 
 const ReportLayout* DeviceProfile::input_layout(std::uint8_t id) const {
@@ -296,9 +300,10 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
   for (std::size_t i = 0; i < match.size(); ++i) {
     const std::string w = "match[" + std::to_string(i) + "]";
     c.keys(match[i], w, {"vendor_id", "product_id"});
-    p.match.push_back({static_cast<std::uint16_t>(c.integer(c.need(match[i], "vendor_id", w), w + ".vendor_id", 0, 0xffff)),
-                       static_cast<std::uint16_t>(
-                           c.integer(c.need(match[i], "product_id", w), w + ".product_id", 0, 0xffff))});
+    p.match.push_back(
+        {static_cast<std::uint16_t>(c.integer(c.need(match[i], "vendor_id", w), w + ".vendor_id", 0, 0xffff)),
+         static_cast<std::uint16_t>(
+             c.integer(c.need(match[i], "product_id", w), w + ".product_id", 0, 0xffff))});
   }
 
   const std::string mo = c.str(c.need(root, "motion", ""), "motion");
@@ -368,14 +373,18 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
     const YAML::Node u = root["usb"];
     if (p.transport != Transport::Usb) c.fail(u, "usb", "only for transport: usb");
     c.keys(u, "usb", {"interface", "in_endpoint", "out_endpoint", "transfer"});
-    if (u["interface"]) p.usb.interface = static_cast<int>(c.integer(u["interface"], "usb.interface", 0, 255));
+    if (u["interface"])
+      p.usb.interface = static_cast<int>(c.integer(u["interface"], "usb.interface", 0, 255));
     if (u["in_endpoint"])
-      p.usb.in_endpoint = static_cast<std::uint8_t>(c.integer(u["in_endpoint"], "usb.in_endpoint", 0x81, 0x8f));
+      p.usb.in_endpoint =
+          static_cast<std::uint8_t>(c.integer(u["in_endpoint"], "usb.in_endpoint", 0x81, 0x8f));
     if (u["out_endpoint"])
-      p.usb.out_endpoint = static_cast<std::uint8_t>(c.integer(u["out_endpoint"], "usb.out_endpoint", 0x01, 0x0f));
+      p.usb.out_endpoint =
+          static_cast<std::uint8_t>(c.integer(u["out_endpoint"], "usb.out_endpoint", 0x01, 0x0f));
     if (u["transfer"]) {
       const std::string t = c.str(u["transfer"], "usb.transfer");
-      if (t != "interrupt" && t != "bulk") c.fail(u["transfer"], "usb.transfer", "expected interrupt or bulk");
+      if (t != "interrupt" && t != "bulk")
+        c.fail(u["transfer"], "usb.transfer", "expected interrupt or bulk");
       p.usb.bulk = t == "bulk";
     }
   }
@@ -405,7 +414,8 @@ std::vector<DeviceProfile> load_device_profiles(const std::string& dir) {
   return out;
 }
 
-ParseResult parse_report(const DeviceProfile& p, std::span<const std::uint8_t> report, ReportValues& out) noexcept {
+ParseResult parse_report(const DeviceProfile& p, std::span<const std::uint8_t> report,
+                         ReportValues& out) noexcept {
   out = ReportValues{};
   if (report.empty()) return ParseResult::Short;
   const ReportLayout* layout = p.input_layout(report[0]);
@@ -427,7 +437,8 @@ ParseResult parse_report(const DeviceProfile& p, std::span<const std::uint8_t> r
   return ParseResult::Ok;
 }
 
-std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, std::span<std::uint8_t> report) noexcept {
+std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force,
+                         std::span<std::uint8_t> report) noexcept {
   if (!p.output_report || report.size() < p.output_report->length) return 0;
   const ReportLayout& r = *p.output_report;
   std::fill(report.begin(), report.begin() + static_cast<std::ptrdiff_t>(r.length), std::uint8_t{0});

@@ -47,9 +47,9 @@ struct ReportField {
   Axis axis = Axis::X;
   std::size_t offset = 0;  // [bytes] from the start of the report (the id byte, when there is one)
   FieldType type = FieldType::U8;
-  double scale = 1.0;      // value = raw * scale
-  double deadband = 0.0;   // |raw| <= deadband reads as 0 (raw units)
-  int shift = 0;           // buttons only: bit position of the field's bit 0
+  double scale = 1.0;     // value = raw * scale
+  double deadband = 0.0;  // |raw| <= deadband reads as 0 (raw units)
+  int shift = 0;          // buttons only: bit position of the field's bit 0
 };
 
 struct ReportLayout {

@@ -41,7 +41,9 @@ std::string usb_string(libusb_device_handle* h, std::uint8_t index) {
 HidTransport::HidTransport(std::vector<DeviceMatch> match, DeviceSelector selector, bool numbered_reports)
     : match_(std::move(match)), selector_(std::move(selector)), numbered_(numbered_reports) {}
 
-HidTransport::~HidTransport() { close(); }
+HidTransport::~HidTransport() {
+  close();
+}
 
 bool HidTransport::open() {
   close();
@@ -89,8 +91,8 @@ bool HidTransport::write(std::span<const std::uint8_t> report) noexcept {
 // ---- libusb ----
 
 struct UsbTransport::Queues {
-  moodycamel::ReaderWriterQueue<Packet> in{256};   // I/O thread -> haptic thread
-  moodycamel::ReaderWriterQueue<Packet> out{16};   // haptic thread -> I/O thread
+  moodycamel::ReaderWriterQueue<Packet> in{256};  // I/O thread -> haptic thread
+  moodycamel::ReaderWriterQueue<Packet> out{16};  // haptic thread -> I/O thread
 };
 
 UsbTransport::UsbTransport(std::vector<DeviceMatch> match, DeviceSelector selector, UsbEndpoints endpoints,
@@ -157,7 +159,8 @@ void UsbTransport::close() {
 }
 
 void UsbTransport::io_loop() {
-  const auto transfer = [&](std::uint8_t endpoint, unsigned char* data, int length, int* done, unsigned timeout_ms) {
+  const auto transfer = [&](std::uint8_t endpoint, unsigned char* data, int length, int* done,
+                            unsigned timeout_ms) {
     return ep_.bulk ? libusb_bulk_transfer(handle_, endpoint, data, length, done, timeout_ms)
                     : libusb_interrupt_transfer(handle_, endpoint, data, length, done, timeout_ms);
   };
@@ -203,7 +206,8 @@ bool UsbTransport::write(std::span<const std::uint8_t> report) noexcept {
 
 // ---- enumeration ----
 
-std::vector<FoundDevice> enumerate_devices(const std::vector<DeviceProfile>& profiles, bool include_unmatched) {
+std::vector<FoundDevice> enumerate_devices(const std::vector<DeviceProfile>& profiles,
+                                           bool include_unmatched) {
   std::vector<FoundDevice> out;
   const auto find_profile = [&](Transport t, std::uint16_t vid, std::uint16_t pid) {
     for (std::size_t i = 0; i < profiles.size(); ++i)
@@ -213,9 +217,14 @@ std::vector<FoundDevice> enumerate_devices(const std::vector<DeviceProfile>& pro
   if (hid_init() == 0) {
     hid_device_info* list = hid_enumerate(0, 0);
     for (hid_device_info* d = list; d; d = d->next) {
-      FoundDevice f{Transport::Hid,          d->vendor_id,           d->product_id,
-                    narrow(d->serial_number), d->path ? d->path : "", narrow(d->manufacturer_string),
-                    narrow(d->product_string), find_profile(Transport::Hid, d->vendor_id, d->product_id)};
+      FoundDevice f{Transport::Hid,
+                    d->vendor_id,
+                    d->product_id,
+                    narrow(d->serial_number),
+                    d->path ? d->path : "",
+                    narrow(d->manufacturer_string),
+                    narrow(d->product_string),
+                    find_profile(Transport::Hid, d->vendor_id, d->product_id)};
       if (f.profile >= 0 || include_unmatched) out.push_back(std::move(f));
     }
     hid_free_enumeration(list);

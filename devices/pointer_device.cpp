@@ -5,7 +5,9 @@
 
 namespace scalpel {
 
-PointerDevice::PointerDevice(PointerMapping mapping) : m_(mapping) { last_.position = m_.home; }
+PointerDevice::PointerDevice(PointerMapping mapping) : m_(mapping) {
+  last_.position = m_.home;
+}
 
 DeviceStatus PointerDevice::read(double t, ToolSample& out) noexcept {
   if (input_.update()) AtomicDeviceCounters::bump(counters_.reports);
@@ -43,7 +45,8 @@ DeviceStatus PointerDevice::read(double t, ToolSample& out) noexcept {
     AtomicDeviceCounters::bump(counters_.rejected_poses);
   } else {
     s.position = p.cwiseMax(m_.workspace_min).cwiseMin(m_.workspace_max);
-    s.orientation = Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(pitch_, Eigen::Vector3d::UnitX());
+    s.orientation = Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitY()) *
+                    Eigen::AngleAxisd(pitch_, Eigen::Vector3d::UnitX());
   }
   last_ = s;
   out = s;

@@ -22,11 +22,11 @@ struct PointerInput {
 };
 
 struct PointerMapping {
-  double metres_per_pixel = 2e-4;                           // [m/px]
-  double metres_per_notch = 2e-3;                           // [m] per scroll notch, upwards
-  double key_speed = 0.05;                                  // [m/s] raise / lower keys
-  double key_turn_rate = 1.0;                               // [rad/s] turning keys
-  Eigen::Vector3d home = Eigen::Vector3d::Zero();           // [m] pose at the first input
+  double metres_per_pixel = 2e-4;                                   // [m/px]
+  double metres_per_notch = 2e-3;                                   // [m] per scroll notch, upwards
+  double key_speed = 0.05;                                          // [m/s] raise / lower keys
+  double key_turn_rate = 1.0;                                       // [rad/s] turning keys
+  Eigen::Vector3d home = Eigen::Vector3d::Zero();                   // [m] pose at the first input
   Eigen::Vector3d workspace_min = Eigen::Vector3d::Constant(-0.5);  // [m]
   Eigen::Vector3d workspace_max = Eigen::Vector3d::Constant(0.5);   // [m]
 };
@@ -50,8 +50,8 @@ class PointerDevice final : public Device {
   // Haptic thread only.
   bool anchored_ = false;
   double anchor_x_ = 0, anchor_y_ = 0, anchor_scroll_ = 0;  // input where the tool is at home
-  double lift_ = 0.0;                                        // [m] from the raise / lower keys
-  double yaw_ = 0.0, pitch_ = 0.0;                           // [rad]
+  double lift_ = 0.0;                                       // [m] from the raise / lower keys
+  double yaw_ = 0.0, pitch_ = 0.0;                          // [rad]
   double last_t_ = 0.0;
   bool has_last_t_ = false;
   ToolSample last_;

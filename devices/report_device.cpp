@@ -67,7 +67,8 @@ void ReportDevice::update_pose(double t) noexcept {
   Eigen::Quaterniond raw_q = Eigen::Quaterniond::Identity();
   if (has_orientation_) raw_q = Eigen::Quaterniond(ax(Axis::QW), ax(Axis::QX), ax(Axis::QY), ax(Axis::QZ));
   const double n = raw_q.norm();
-  if (!raw_p.allFinite() || !std::isfinite(n) || std::abs(n - 1.0) > kUnitTolerance || !inside(raw_p, profile_)) {
+  if (!raw_p.allFinite() || !std::isfinite(n) || std::abs(n - 1.0) > kUnitTolerance ||
+      !inside(raw_p, profile_)) {
     AtomicDeviceCounters::bump(counters_.rejected_poses);
     return;
   }
@@ -80,6 +81,7 @@ void ReportDevice::update_pose(double t) noexcept {
   }
   position_ = raw_p + offset_position_;
   orientation_ = (offset_orientation_ * raw_q).normalized();
+  has_pose_ = true;
 }
 
 DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
@@ -88,7 +90,7 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
     AtomicDeviceCounters::bump(counters_.reconnects);
     axis_.fill(0.0);  // rates from before the unplug are stale
     fresh_ = false;
-    reindex_ = profile_.motion == Motion::Absolute;
+    reindex_ = profile_.motion == Motion::Absolute && has_pose_;
     has_last_t_ = false;
     state = Connected;
     state_.store(Connected, std::memory_order_release);
@@ -105,7 +107,8 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
         break;
       }
       ReportValues v;
-      switch (parse_report(profile_, std::span<const std::uint8_t>(in_.data(), static_cast<std::size_t>(n)), v)) {
+      switch (
+          parse_report(profile_, std::span<const std::uint8_t>(in_.data(), static_cast<std::size_t>(n)), v)) {
         case ParseResult::Ok:
           AtomicDeviceCounters::bump(counters_.reports);
           apply(v);

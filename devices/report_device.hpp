@@ -34,7 +34,9 @@ class ReportDevice final : public Device {
   // Reopens the transport after an unplug (or a failed first open).
   void maintain() override;
 
-  [[nodiscard]] double max_force() const override { return profile_.output_report ? profile_.max_force : 0.0; }
+  [[nodiscard]] double max_force() const override {
+    return profile_.output_report ? profile_.max_force : 0.0;
+  }
   [[nodiscard]] double max_force_rate() const override { return profile_.max_force_rate; }
   [[nodiscard]] DeviceCounters counters() const override { return counters_.snapshot(); }
   [[nodiscard]] const DeviceProfile& profile() const { return profile_; }
@@ -64,12 +66,13 @@ class ReportDevice final : public Device {
   // Haptic thread only.
   std::array<double, 10> axis_{};  // latest value per Axis X..QZ
   std::uint32_t buttons_ = 0;
-  Eigen::Vector3d position_;                                       // [m] the tool pose given out
+  Eigen::Vector3d position_;  // [m] the tool pose given out
   Eigen::Quaterniond orientation_ = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d offset_position_ = Eigen::Vector3d::Zero();      // [m] re-indexing (absolute)
+  Eigen::Vector3d offset_position_ = Eigen::Vector3d::Zero();  // [m] re-indexing (absolute)
   Eigen::Quaterniond offset_orientation_ = Eigen::Quaterniond::Identity();
-  bool reindex_ = false;      // the next absolute pose re-indexes onto the frozen one
-  bool fresh_ = false;        // a report arrived since the last pose update
+  bool has_pose_ = false;  // an absolute pose was accepted
+  bool reindex_ = false;   // the next absolute pose re-indexes onto the frozen one
+  bool fresh_ = false;     // a report arrived since the last pose update
   double last_t_ = 0.0;
   bool has_last_t_ = false;
   std::array<std::uint8_t, kMaxReport> in_{};

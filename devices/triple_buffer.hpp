@@ -20,7 +20,8 @@ class TripleBuffer {
   void publish(const T& value) {
     slots_[back_] = value;
     // Hand the written slot over as the middle one, marked new; take the old middle as back.
-    const std::uint8_t old = middle_.exchange(static_cast<std::uint8_t>(back_ | kNew), std::memory_order_acq_rel);
+    const std::uint8_t old =
+        middle_.exchange(static_cast<std::uint8_t>(back_ | kNew), std::memory_order_acq_rel);
     back_ = old & kIndex;
   }
 
@@ -37,9 +38,9 @@ class TripleBuffer {
  private:
   static constexpr std::uint8_t kIndex = 3, kNew = 4;
   std::array<T, 3> slots_{};
-  std::uint8_t back_ = 0;                 // writer thread
-  std::atomic<std::uint8_t> middle_{1};   // shared
-  std::uint8_t front_ = 2;                // reader thread
+  std::uint8_t back_ = 0;                // writer thread
+  std::atomic<std::uint8_t> middle_{1};  // shared
+  std::uint8_t front_ = 2;               // reader thread
 };
 
 }  // namespace scalpel

@@ -11,9 +11,12 @@ ForceRenderer::ForceRenderer(ForceLimits limits, double rate) : limits_(limits),
   alpha_ = dt_ / (dt_ + tau);
 }
 
-Eigen::Vector3d ForceRenderer::render(const Eigen::Vector3d& x, const ForceModel* model, bool enabled) noexcept {
-  if (has_x_) v_ += alpha_ * ((x - x_prev_) / dt_ - v_);
-  else v_.setZero();
+Eigen::Vector3d ForceRenderer::render(const Eigen::Vector3d& x, const ForceModel* model,
+                                      bool enabled) noexcept {
+  if (has_x_)
+    v_ += alpha_ * ((x - x_prev_) / dt_ - v_);
+  else
+    v_.setZero();
   x_prev_ = x;
   has_x_ = true;
 

@@ -66,8 +66,8 @@ class ForceRenderer {
 
  private:
   ForceLimits limits_;
-  double dt_;      // [s]
-  double alpha_;   // low-pass gain per cycle
+  double dt_;     // [s]
+  double alpha_;  // low-pass gain per cycle
   Eigen::Vector3d x_prev_ = Eigen::Vector3d::Zero();
   bool has_x_ = false;
   Eigen::Vector3d v_ = Eigen::Vector3d::Zero();

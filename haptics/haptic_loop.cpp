@@ -22,7 +22,9 @@ ForceLimits limits_for(const Device& d, const HapticLoopConfig& c) {
           c.max_force_rate > 0.0 ? c.max_force_rate : d.max_force_rate()};
 }
 
-std::int64_t to_ns(const timespec& ts) { return std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec; }
+std::int64_t to_ns(const timespec& ts) {
+  return std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec;
+}
 
 timespec from_ns(std::int64_t ns) {
   timespec ts{};
@@ -50,7 +52,9 @@ HapticLoop::HapticLoop(Device& device, ToolQueue& queue, ForceChannel& forces, H
   period_log_.resize(config_.period_log);
 }
 
-HapticLoop::~HapticLoop() { stop(); }
+HapticLoop::~HapticLoop() {
+  stop();
+}
 
 HapticLoop::Push HapticLoop::cycle(double t, bool merge_when_full) noexcept {
   ToolSample s;
@@ -95,19 +99,20 @@ HapticLoop::Push HapticLoop::cycle(double t, bool merge_when_full) noexcept {
     held_span_ = 1;
     return Push::Held;
   }
-  if (!merge_when_full) return Push::Held;  // unreachable on the virtual clock: it stops at a held sample
+  if (!merge_when_full) return Push::Held;  // not reached: run_cycles(Stop) pushes the held sample first
   held_ = s;  // merge: the newest pose stands for the cycles since the last pushed one
   ++held_span_;
   counters_.merged.fetch_add(1, kRelaxed);
   return Push::Held;
 }
 
-std::size_t HapticLoop::run_cycles(std::size_t n) {
+std::size_t HapticLoop::run_cycles(std::size_t n, OnFullQueue on_full) {
   if (running()) throw std::logic_error("HapticLoop::run_cycles: the real-time thread is running");
   used_virtual_ = true;
   std::size_t done = 0;
   while (done < n) {
-    if (has_held_) {
+    const bool merge = on_full == OnFullQueue::Merge;
+    if (has_held_ && !merge) {
       if (!queue_.push(held_)) break;  // still full: the caller drains the queue first
       has_held_ = false;
       counters_.pushed.fetch_add(1, kRelaxed);
@@ -115,7 +120,7 @@ std::size_t HapticLoop::run_cycles(std::size_t n) {
     const double t = static_cast<double>(cycle_) / config_.rate;
     ++cycle_;
     ++done;
-    if (cycle(t, false) == Push::Held) break;
+    if (cycle(t, merge) == Push::Held && !merge) break;
   }
   return done;
 }
@@ -129,12 +134,12 @@ void HapticLoop::start() {
   thread_ = std::thread([this] { thread_main(); });
   if (config_.realtime_priority) {
     sched_param sp{};
-    sp.sched_priority = std::clamp(config_.priority, sched_get_priority_min(SCHED_FIFO),
-                                   sched_get_priority_max(SCHED_FIFO));
+    sp.sched_priority =
+        std::clamp(config_.priority, sched_get_priority_min(SCHED_FIFO), sched_get_priority_max(SCHED_FIFO));
     const int err = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
     if (err != 0)
-      warning_ = std::string("haptic loop: no real-time priority (SCHED_FIFO ") + std::to_string(sp.sched_priority) +
-                 ": " + std::strerror(err) +
+      warning_ = std::string("haptic loop: no real-time priority (SCHED_FIFO ") +
+                 std::to_string(sp.sched_priority) + ": " + std::strerror(err) +
                  "); running at normal priority, the period may jitter under load "
                  "(grant CAP_SYS_NICE or an rtprio limit to fix)";
   }

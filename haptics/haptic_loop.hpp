@@ -53,14 +53,14 @@ struct HapticLoopConfig {
 struct HapticStats {
   std::uint64_t cycles = 0;
   std::uint64_t samples_pushed = 0;
-  std::uint64_t merged_samples = 0;   // samples replaced by a newer one while the queue was full
-  std::uint64_t merged_sweeps = 0;    // pushed samples standing for more than one cycle
-  std::uint64_t device_not_ok = 0;    // cycles without a current pose (unplugged, fault, ended)
-  std::uint64_t stalls = 0;           // times the simulation stalled (force went to zero)
-  std::uint64_t overruns = 0;         // cycles that started a whole period late (deadline reset)
-  double period_mean = 0.0;           // [s] measured (real clock)
-  double period_error_rms = 0.0;      // [s] jitter: RMS of (period - 1/rate)
-  double period_error_max = 0.0;      // [s] largest |period - 1/rate|
+  std::uint64_t merged_samples = 0;  // samples replaced by a newer one while the queue was full
+  std::uint64_t merged_sweeps = 0;   // pushed samples standing for more than one cycle
+  std::uint64_t device_not_ok = 0;   // cycles without a current pose (unplugged, fault, ended)
+  std::uint64_t stalls = 0;          // times the simulation stalled (force went to zero)
+  std::uint64_t overruns = 0;        // cycles that started a whole period late (deadline reset)
+  double period_mean = 0.0;          // [s] measured (real clock)
+  double period_error_rms = 0.0;     // [s] jitter: RMS of (period - 1/rate)
+  double period_error_max = 0.0;     // [s] largest |period - 1/rate|
 };
 
 class HapticLoop {
@@ -71,8 +71,13 @@ class HapticLoop {
   HapticLoop(const HapticLoop&) = delete;
   HapticLoop& operator=(const HapticLoop&) = delete;
 
-  // Virtual clock. Runs up to n cycles; returns how many ran (fewer when the queue is full).
-  std::size_t run_cycles(std::size_t n);
+  enum class OnFullQueue : std::uint8_t {
+    Stop,   // stop early, hold the sample that did not fit (no sample is ever dropped or merged)
+    Merge,  // as the real clock does (for tests of the merge policy)
+  };
+  // Virtual clock. Runs up to n cycles; returns how many ran (fewer when the queue is full and
+  // on_full is Stop).
+  std::size_t run_cycles(std::size_t n, OnFullQueue on_full = OnFullQueue::Stop);
   // Virtual time of the next cycle [s].
   [[nodiscard]] double virtual_time() const { return static_cast<double>(cycle_) / config_.rate; }
 
@@ -106,7 +111,7 @@ class HapticLoop {
   bool has_model_ = false;
   double model_seen_t_ = 0.0;  // [s] loop time the newest model arrived
   bool stalled_ = false;
-  ToolSample held_;            // the sample that did not fit in the queue
+  ToolSample held_;  // the sample that did not fit in the queue
   bool has_held_ = false;
   std::uint64_t held_span_ = 0;  // cycles the held sample stands for
   std::uint64_t cycle_ = 0;      // virtual clock: cycles run

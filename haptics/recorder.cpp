@@ -22,19 +22,23 @@ std::uint64_t drain(ToolQueue& q, const SampleSink& write) {
 }  // namespace
 
 RecordingResult record_session(Device& device, ForceChannel& forces, const RecordingOptions& options,
-                               const SampleSink& write, const FlushSink& flush, const std::atomic<bool>& stop) {
+                               const SampleSink& write, const FlushSink& flush,
+                               const std::atomic<bool>& stop) {
   ToolQueue queue(options.queue_capacity);
   HapticLoop loop(device, queue, forces, options.loop);
   RecordingResult r;
   const double rate = options.loop.rate;
 
   if (options.virtual_clock) {
-    const auto total = options.duration > 0.0 ? static_cast<std::uint64_t>(std::llround(options.duration * rate))
-                                              : UINT64_MAX;
-    const auto per_flush = std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(options.flush_interval * rate)));
+    const auto total = options.duration > 0.0
+                           ? static_cast<std::uint64_t>(std::llround(options.duration * rate))
+                           : UINT64_MAX;
+    const auto per_flush =
+        std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(options.flush_interval * rate)));
     std::uint64_t cycles = 0, since_flush = 0;
     while (cycles < total && !stop.load(std::memory_order_acquire)) {
-      const std::uint64_t chunk = std::min<std::uint64_t>({total - cycles, per_flush - since_flush, queue.capacity()});
+      const std::uint64_t chunk =
+          std::min<std::uint64_t>({total - cycles, per_flush - since_flush, queue.capacity()});
       const std::uint64_t not_ok_before = loop.stats().device_not_ok;
       const std::size_t ran = loop.run_cycles(static_cast<std::size_t>(chunk));
       cycles += ran;
@@ -59,7 +63,8 @@ RecordingResult record_session(Device& device, ForceChannel& forces, const Recor
     try {
       while (!stop.load(std::memory_order_acquire)) {
         const auto now = std::chrono::steady_clock::now();
-        if (options.duration > 0.0 && std::chrono::duration<double>(now - t0).count() >= options.duration) break;
+        if (options.duration > 0.0 && std::chrono::duration<double>(now - t0).count() >= options.duration)
+          break;
         r.samples += drain(queue, write);
         if (now >= next_flush) {
           flush();

@@ -17,11 +17,11 @@ namespace scalpel {
 
 struct RecordingOptions {
   HapticLoopConfig loop;
-  bool virtual_clock = false;       // true: run on the virtual clock, as fast as the sink takes it
+  bool virtual_clock = false;  // true: run on the virtual clock, as fast as the sink takes it
   std::size_t queue_capacity = 4096;
-  double duration = 0.0;            // [s] 0: until stop is requested (or a replayed device ends)
-  double flush_interval = 0.1;      // [s] of session time between flushes
-  double drain_interval = 0.002;    // [s] real clock: the recording thread's polling period
+  double duration = 0.0;          // [s] 0: until stop is requested (or a replayed device ends)
+  double flush_interval = 0.1;    // [s] of session time between flushes
+  double drain_interval = 0.002;  // [s] real clock: the recording thread's polling period
 };
 
 struct RecordingResult {
@@ -39,6 +39,7 @@ using FlushSink = std::function<void()>;
 // stops giving poses. Ends with a final flush. Exceptions of the sinks propagate (after the loop
 // stopped).
 RecordingResult record_session(Device& device, ForceChannel& forces, const RecordingOptions& options,
-                               const SampleSink& write, const FlushSink& flush, const std::atomic<bool>& stop);
+                               const SampleSink& write, const FlushSink& flush,
+                               const std::atomic<bool>& stop);
 
 }  // namespace scalpel
