@@ -5,7 +5,8 @@
 
 #include <hidapi/hidapi.h>
 #include <libusb-1.0/libusb.h>
-#include <readerwriterqueue/readerwriterqueue.h>
+
+#include "devices/spsc_ring.hpp"
 
 namespace scalpel {
 
@@ -91,8 +92,8 @@ bool HidTransport::write(std::span<const std::uint8_t> report) noexcept {
 // ---- libusb ----
 
 struct UsbTransport::Queues {
-  moodycamel::ReaderWriterQueue<Packet> in{256};  // I/O thread -> haptic thread
-  moodycamel::ReaderWriterQueue<Packet> out{16};  // haptic thread -> I/O thread
+  SpscRing<Packet> in{256};  // I/O thread -> haptic thread
+  SpscRing<Packet> out{16};  // haptic thread -> I/O thread
 };
 
 UsbTransport::UsbTransport(std::vector<DeviceMatch> match, DeviceSelector selector, UsbEndpoints endpoints,
@@ -137,10 +138,10 @@ bool UsbTransport::open() {
     handle_ = nullptr;
     return false;
   }
-  Packet p;
-  while (queues_->in.try_dequeue(p)) {
+  Packet p;  // the I/O thread is stopped: both ends are ours
+  while (queues_->in.pop(p)) {
   }
-  while (queues_->out.try_dequeue(p)) {
+  while (queues_->out.pop(p)) {
   }
   gone_.store(false, std::memory_order_relaxed);
   running_.store(true, std::memory_order_release);
@@ -167,9 +168,9 @@ void UsbTransport::io_loop() {
   Packet p;
   while (running_.load(std::memory_order_acquire)) {
     Packet o;
-    if (ep_.out_endpoint != 0 && queues_->out.try_dequeue(o)) {
+    if (ep_.out_endpoint != 0 && queues_->out.pop(o)) {
       // Only the newest force matters: skip those queued behind it.
-      while (queues_->out.try_dequeue(o)) {
+      while (queues_->out.pop(o)) {
       }
       int done = 0;
       const int r = transfer(ep_.out_endpoint, o.data.data(), o.length, &done, 10);
@@ -179,7 +180,7 @@ void UsbTransport::io_loop() {
     const int r = transfer(ep_.in_endpoint, p.data.data(), static_cast<int>(in_length_), &done, 2);
     if (r == 0 || (r == LIBUSB_ERROR_OVERFLOW && done > 0)) {
       p.length = done;
-      (void)queues_->in.try_enqueue(p);  // full: the haptic thread is not reading; newer reports follow
+      (void)queues_->in.push(p);  // full: the haptic thread is not reading; newer reports follow
     } else if (r != LIBUSB_ERROR_TIMEOUT) {
       break;
     }
@@ -188,11 +189,11 @@ void UsbTransport::io_loop() {
 }
 
 int UsbTransport::read(std::span<std::uint8_t> buf) noexcept {
-  Packet* p = queues_->in.peek();
-  if (!p) return gone_.load(std::memory_order_acquire) && !queues_->in.peek() ? -1 : 0;
+  const Packet* p = queues_->in.front();
+  if (!p) return gone_.load(std::memory_order_acquire) && !queues_->in.front() ? -1 : 0;
   const int n = std::min(p->length, static_cast<int>(buf.size()));
   std::memcpy(buf.data(), p->data.data(), static_cast<std::size_t>(n));
-  queues_->in.pop();
+  queues_->in.pop(scratch_);
   return n;
 }
 
@@ -201,7 +202,7 @@ bool UsbTransport::write(std::span<const std::uint8_t> report) noexcept {
   Packet p;
   std::memcpy(p.data.data(), report.data(), report.size());
   p.length = static_cast<int>(report.size());
-  return queues_->out.try_enqueue(p);
+  return queues_->out.push(p);
 }
 
 // ---- enumeration ----

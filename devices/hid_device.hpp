@@ -47,7 +47,7 @@ class HidTransport final : public ReportTransport {
 };
 
 // libusb, interrupt or bulk endpoints. An I/O thread of its own does the blocking transfers and
-// passes reports through two pre-sized SPSC queues, so read() and write() never block.
+// passes reports through two pre-sized SPSC rings, so read() and write() never block.
 class UsbTransport final : public ReportTransport {
  public:
   UsbTransport(std::vector<DeviceMatch> match, DeviceSelector selector, UsbEndpoints endpoints,
@@ -77,6 +77,7 @@ class UsbTransport final : public ReportTransport {
   libusb_device_handle* handle_ = nullptr;
   struct Queues;
   std::unique_ptr<Queues> queues_;
+  Packet scratch_;                    // haptic thread: the popped packet
   std::atomic<bool> running_{false};  // the I/O thread runs while true
   std::atomic<bool> gone_{false};     // set by the I/O thread when the device went away
   std::thread io_;

@@ -219,3 +219,27 @@ TEST_CASE("a 1 kHz haptic thread and a stalling simulation thread share the queu
   for (std::size_t k = 1; k < got.size(); ++k) widest = std::max(widest, got[k].t - got[k - 1].t);
   CHECK(widest > 0.02);
 }
+
+TEST_CASE("the tool queue holds exactly its capacity and keeps order") {
+  ToolQueue q(3);
+  CHECK(q.capacity() == 3);
+  ToolSample s;
+  for (int k = 0; k < 3; ++k) {
+    s.t = k;
+    CHECK(q.push(s));
+  }
+  CHECK_FALSE(q.push(s));
+  CHECK(q.rejected() == 1);
+  CHECK(q.size_approx() == 3);
+  for (int k = 0; k < 3; ++k) {
+    REQUIRE(q.pop(s));
+    CHECK(s.t == k);
+  }
+  CHECK_FALSE(q.pop(s));
+  for (int k = 0; k < 10; ++k) {  // wraps around
+    s.t = 10 + k;
+    REQUIRE(q.push(s));
+    REQUIRE(q.pop(s));
+    CHECK(s.t == 10 + k);
+  }
+}
