@@ -2,16 +2,16 @@
 
 namespace scalpel {
 
-ToolQueue::ToolQueue(std::size_t capacity) : queue_(capacity), capacity_(capacity) {}
+ToolQueue::ToolQueue(std::size_t capacity) : ring_(capacity) {}
 
 bool ToolQueue::push(const ToolSample& s) {
-  if (queue_.try_enqueue(s)) return true;
+  if (ring_.push(s)) return true;
   rejected_.fetch_add(1, std::memory_order_relaxed);
   return false;
 }
 
 bool ToolQueue::pop(ToolSample& out) {
-  return queue_.try_dequeue(out);
+  return ring_.pop(out);
 }
 
 }  // namespace scalpel

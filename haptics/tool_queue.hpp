@@ -6,15 +6,14 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <readerwriterqueue/readerwriterqueue.h>
-
+#include "devices/spsc_ring.hpp"
 #include "devices/tool_sample.hpp"
 
 namespace scalpel {
 
 class ToolQueue {
  public:
-  // Sized once; push never allocates.
+  // Holds exactly `capacity` samples, sized once; push never allocates.
   explicit ToolQueue(std::size_t capacity);
 
   // Producer thread only. Returns false, and counts the sample, when the queue is full.
@@ -22,12 +21,12 @@ class ToolQueue {
   // Consumer thread only.
   bool pop(ToolSample& out);
 
-  [[nodiscard]] std::size_t capacity() const { return capacity_; }
+  [[nodiscard]] std::size_t capacity() const { return ring_.capacity(); }
+  [[nodiscard]] std::size_t size_approx() const { return ring_.size_approx(); }
   [[nodiscard]] std::uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
 
  private:
-  moodycamel::ReaderWriterQueue<ToolSample> queue_;
-  std::size_t capacity_;
+  SpscRing<ToolSample> ring_;
   std::atomic<std::uint64_t> rejected_{0};  // written by the producer, read by anyone
 };
 

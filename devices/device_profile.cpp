@@ -1,0 +1,453 @@
+#include "devices/device_profile.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "cutting/input_error.hpp"
+
+namespace scalpel {
+
+namespace {
+
+struct Ctx {
+  std::string file;
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& msg) const {
+    const YAML::Mark m = n.Mark();
+    const bool known = m.line >= 0 && !m.is_null();
+    throw InputError(file, known ? m.line + 1 : 0, known ? m.column + 1 : 0, key, msg);
+  }
+
+  void keys(const YAML::Node& map, const std::string& where,
+            std::initializer_list<const char*> allowed) const {
+    if (!map.IsMap()) fail(map, where, "expected a mapping");
+    for (const auto& kv : map) {
+      const std::string k = kv.first.as<std::string>();
+      if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return k == a; }))
+        fail(kv.first, where.empty() ? k : where + "." + k, "unknown key");
+    }
+  }
+
+  YAML::Node need(const YAML::Node& map, const char* key, const std::string& where) const {
+    const YAML::Node n = map[key];
+    if (!n) fail(map, where.empty() ? key : where + "." + key, "missing");
+    return n;
+  }
+
+  std::string str(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(n, key, "expected a scalar");
+    return n.Scalar();
+  }
+
+  // Decimal or 0x-prefixed hexadecimal integer in [lo, hi].
+  long long integer(const YAML::Node& n, const std::string& key, long long lo, long long hi) const {
+    const std::string s = str(n, key);
+    int base = 10;
+    std::size_t start = 0;
+    if (s.size() > 2 && s[0] == '0' && (s[1] == 'x' || s[1] == 'X')) base = 16, start = 2;
+    long long v = 0;
+    const char* end = s.data() + s.size();
+    const auto [ptr, ec] = std::from_chars(s.data() + start, end, v, base);
+    if (ec != std::errc() || ptr != end) fail(n, key, "expected an integer, got '" + s + "'");
+    if (v < lo || v > hi)
+      fail(n, key, "out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]: " + s);
+    return v;
+  }
+
+  double number(const YAML::Node& n, const std::string& key) const {
+    const std::string s = str(n, key);
+    double v = 0.0;
+    const char* end = s.data() + s.size();
+    const auto [ptr, ec] = std::from_chars(s.data(), end, v);
+    if (ec != std::errc() || ptr != end || !std::isfinite(v))
+      fail(n, key, "expected a finite number, got '" + s + "'");
+    return v;
+  }
+
+  Eigen::Vector3d vec3(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence() || n.size() != 3) fail(n, key, "expected [x, y, z]");
+    return {number(n[0], key), number(n[1], key), number(n[2], key)};
+  }
+};
+
+FieldType parse_type(const Ctx& c, const YAML::Node& n, const std::string& key) {
+  static constexpr std::pair<const char*, FieldType> kTypes[] = {
+      {"u8", FieldType::U8},       {"i8", FieldType::I8},       {"u16le", FieldType::U16LE},
+      {"i16le", FieldType::I16LE}, {"u16be", FieldType::U16BE}, {"i16be", FieldType::I16BE},
+      {"u32le", FieldType::U32LE}, {"i32le", FieldType::I32LE}, {"f32le", FieldType::F32LE}};
+  const std::string s = c.str(n, key);
+  for (const auto& [name, t] : kTypes)
+    if (s == name) return t;
+  c.fail(n, key, "unknown type '" + s + "' (u8 i8 u16le i16le u16be i16be u32le i32le f32le)");
+}
+
+Axis parse_axis(const Ctx& c, const YAML::Node& n, const std::string& key, bool output) {
+  static constexpr std::pair<const char*, Axis> kAxes[] = {
+      {"x", Axis::X},   {"y", Axis::Y},   {"z", Axis::Z},   {"rx", Axis::RX},          {"ry", Axis::RY},
+      {"rz", Axis::RZ}, {"qw", Axis::QW}, {"qx", Axis::QX}, {"qy", Axis::QY},          {"qz", Axis::QZ},
+      {"fx", Axis::FX}, {"fy", Axis::FY}, {"fz", Axis::FZ}, {"buttons", Axis::Buttons}};
+  const std::string s = c.str(n, key);
+  for (const auto& [name, a] : kAxes) {
+    if (s != name) continue;
+    const bool is_force = a == Axis::FX || a == Axis::FY || a == Axis::FZ;
+    if (is_force != output)
+      c.fail(n, key, output ? "output reports carry fx, fy, fz only" : "'" + s + "' is an output axis");
+    return a;
+  }
+  c.fail(n, key, "unknown axis '" + s + "'");
+}
+
+ReportLayout parse_layout(const Ctx& c, const YAML::Node& n, const std::string& where, bool output) {
+  c.keys(n, where, {"id", "length", "fields"});
+  ReportLayout r;
+  if (n["id"]) r.id = static_cast<std::uint8_t>(c.integer(n["id"], where + ".id", 0, 255));
+  r.length = static_cast<std::size_t>(c.integer(c.need(n, "length", where), where + ".length", 1, 1024));
+  const YAML::Node fields = c.need(n, "fields", where);
+  if (!fields.IsSequence() || fields.size() == 0)
+    c.fail(fields, where + ".fields", "expected a non-empty list");
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const YAML::Node f = fields[i];
+    const std::string fw = where + ".fields[" + std::to_string(i) + "]";
+    c.keys(f, fw, {"axis", "offset", "type", "scale", "deadband", "shift"});
+    ReportField rf;
+    rf.axis = parse_axis(c, c.need(f, "axis", fw), fw + ".axis", output);
+    rf.offset = static_cast<std::size_t>(c.integer(c.need(f, "offset", fw), fw + ".offset", 0, 1023));
+    rf.type = parse_type(c, c.need(f, "type", fw), fw + ".type");
+    if (f["scale"]) rf.scale = c.number(f["scale"], fw + ".scale");
+    if (rf.scale == 0.0) c.fail(f["scale"], fw + ".scale", "must not be 0");
+    if (f["deadband"]) rf.deadband = c.number(f["deadband"], fw + ".deadband");
+    if (rf.deadband < 0.0) c.fail(f["deadband"], fw + ".deadband", "must be >= 0");
+    if (f["shift"]) rf.shift = static_cast<int>(c.integer(f["shift"], fw + ".shift", 0, 31));
+    if (rf.axis == Axis::Buttons && (rf.type == FieldType::F32LE || f["scale"]))
+      c.fail(f, fw, "buttons are an unsigned integer field without scale");
+    if (rf.offset + field_size(rf.type) > r.length)
+      c.fail(f["offset"], fw + ".offset", "field ends past the report length " + std::to_string(r.length));
+    if (r.id && rf.offset == 0) c.fail(f["offset"], fw + ".offset", "byte 0 is the report id");
+    r.fields.push_back(rf);
+  }
+  return r;
+}
+
+template <class T>
+T load_le(const std::uint8_t* p) {
+  T v{};
+  std::memcpy(&v, p, sizeof(T));
+  if constexpr (std::endian::native == std::endian::big) {
+    auto* b = reinterpret_cast<std::uint8_t*>(&v);
+    std::reverse(b, b + sizeof(T));
+  }
+  return v;
+}
+
+template <class T>
+T load_be(const std::uint8_t* p) {
+  T v{};
+  std::memcpy(&v, p, sizeof(T));
+  if constexpr (std::endian::native == std::endian::little) {
+    auto* b = reinterpret_cast<std::uint8_t*>(&v);
+    std::reverse(b, b + sizeof(T));
+  }
+  return v;
+}
+
+double read_raw(FieldType t, const std::uint8_t* p) {
+  switch (t) {
+    case FieldType::U8:
+      return p[0];
+    case FieldType::I8:
+      return static_cast<std::int8_t>(p[0]);
+    case FieldType::U16LE:
+      return load_le<std::uint16_t>(p);
+    case FieldType::I16LE:
+      return load_le<std::int16_t>(p);
+    case FieldType::U16BE:
+      return load_be<std::uint16_t>(p);
+    case FieldType::I16BE:
+      return load_be<std::int16_t>(p);
+    case FieldType::U32LE:
+      return load_le<std::uint32_t>(p);
+    case FieldType::I32LE:
+      return load_le<std::int32_t>(p);
+    case FieldType::F32LE:
+      return load_le<float>(p);
+  }
+  return 0.0;
+}
+
+template <class T>
+void store_le(std::uint8_t* p, T v) {
+  if constexpr (std::endian::native == std::endian::big) {
+    auto* b = reinterpret_cast<std::uint8_t*>(&v);
+    std::reverse(b, b + sizeof(T));
+  }
+  std::memcpy(p, &v, sizeof(T));
+}
+
+template <class T>
+void store_be(std::uint8_t* p, T v) {
+  if constexpr (std::endian::native == std::endian::little) {
+    auto* b = reinterpret_cast<std::uint8_t*>(&v);
+    std::reverse(b, b + sizeof(T));
+  }
+  std::memcpy(p, &v, sizeof(T));
+}
+
+template <class T>
+T saturate(double v) {
+  const double lo = static_cast<double>(std::numeric_limits<T>::lowest());
+  const double hi = static_cast<double>(std::numeric_limits<T>::max());
+  return static_cast<T>(std::clamp(std::round(v), lo, hi));
+}
+
+void write_raw(FieldType t, std::uint8_t* p, double v) {
+  switch (t) {
+    case FieldType::U8:
+      p[0] = saturate<std::uint8_t>(v);
+      return;
+    case FieldType::I8:
+      p[0] = static_cast<std::uint8_t>(saturate<std::int8_t>(v));
+      return;
+    case FieldType::U16LE:
+      return store_le(p, saturate<std::uint16_t>(v));
+    case FieldType::I16LE:
+      return store_le(p, saturate<std::int16_t>(v));
+    case FieldType::U16BE:
+      return store_be(p, saturate<std::uint16_t>(v));
+    case FieldType::I16BE:
+      return store_be(p, saturate<std::int16_t>(v));
+    case FieldType::U32LE:
+      return store_le(p, saturate<std::uint32_t>(v));
+    case FieldType::I32LE:
+      return store_le(p, saturate<std::int32_t>(v));
+    case FieldType::F32LE:
+      return store_le(p, static_cast<float>(v));
+  }
+}
+
+}  // namespace
+
+std::size_t field_size(FieldType t) {
+  switch (t) {
+    case FieldType::U8:
+    case FieldType::I8:
+      return 1;
+    case FieldType::U16LE:
+    case FieldType::I16LE:
+    case FieldType::U16BE:
+    case FieldType::I16BE:
+      return 2;
+    case FieldType::U32LE:
+    case FieldType::I32LE:
+    case FieldType::F32LE:
+      return 4;
+  }
+  return 0;
+}
+
+bool DeviceProfile::matches(std::uint16_t vendor_id, std::uint16_t product_id) const {
+  return std::any_of(match.begin(), match.end(), [&](const DeviceMatch& m) {
+    return m.vendor_id == vendor_id && m.product_id == product_id;
+  });
+}
+
+const ReportLayout* DeviceProfile::input_layout(std::uint8_t id) const {
+  for (const ReportLayout& r : input_reports)
+    if (!r.id || *r.id == id) return &r;
+  return nullptr;
+}
+
+std::size_t DeviceProfile::max_input_length() const {
+  std::size_t n = 0;
+  for (const ReportLayout& r : input_reports) n = std::max(n, r.length);
+  return n;
+}
+
+DeviceProfile parse_device_profile(const std::string& yaml_text, const std::string& file) {
+  const Ctx c{file};
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(file, e.mark.line + 1, e.mark.column + 1, "", e.msg);
+  }
+  c.keys(root, "",
+         {"name", "transport", "match", "motion", "workspace", "home", "input_reports", "output_report",
+          "max_force", "max_force_rate", "usb"});
+  DeviceProfile p;
+  p.file = file;
+  p.name = c.str(c.need(root, "name", ""), "name");
+
+  const std::string tr = c.str(c.need(root, "transport", ""), "transport");
+  if (tr == "hid")
+    p.transport = Transport::Hid;
+  else if (tr == "usb")
+    p.transport = Transport::Usb;
+  else
+    c.fail(root["transport"], "transport", "expected hid or usb, got '" + tr + "'");
+
+  const YAML::Node match = c.need(root, "match", "");
+  if (!match.IsSequence() || match.size() == 0) c.fail(match, "match", "expected a non-empty list");
+  for (std::size_t i = 0; i < match.size(); ++i) {
+    const std::string w = "match[" + std::to_string(i) + "]";
+    c.keys(match[i], w, {"vendor_id", "product_id"});
+    p.match.push_back(
+        {static_cast<std::uint16_t>(c.integer(c.need(match[i], "vendor_id", w), w + ".vendor_id", 0, 0xffff)),
+         static_cast<std::uint16_t>(
+             c.integer(c.need(match[i], "product_id", w), w + ".product_id", 0, 0xffff))});
+  }
+
+  const std::string mo = c.str(c.need(root, "motion", ""), "motion");
+  if (mo == "rate")
+    p.motion = Motion::Rate;
+  else if (mo == "absolute")
+    p.motion = Motion::Absolute;
+  else
+    c.fail(root["motion"], "motion", "expected rate or absolute, got '" + mo + "'");
+
+  const YAML::Node ws = c.need(root, "workspace", "");
+  c.keys(ws, "workspace", {"min", "max"});
+  p.workspace_min = c.vec3(c.need(ws, "min", "workspace"), "workspace.min");
+  p.workspace_max = c.vec3(c.need(ws, "max", "workspace"), "workspace.max");
+  if ((p.workspace_min.array() >= p.workspace_max.array()).any())
+    c.fail(ws, "workspace", "min must be below max on every axis");
+  p.home = 0.5 * (p.workspace_min + p.workspace_max);
+  if (root["home"]) {
+    p.home = c.vec3(root["home"], "home");
+    if ((p.home.array() < p.workspace_min.array()).any() || (p.home.array() > p.workspace_max.array()).any())
+      c.fail(root["home"], "home", "outside the workspace");
+  }
+
+  const YAML::Node in = c.need(root, "input_reports", "");
+  if (!in.IsSequence() || in.size() == 0) c.fail(in, "input_reports", "expected a non-empty list");
+  std::set<int> ids;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const std::string w = "input_reports[" + std::to_string(i) + "]";
+    ReportLayout r = parse_layout(c, in[i], w, false);
+    if (!r.id && in.size() > 1) c.fail(in[i], w + ".id", "needed when there are several input reports");
+    if (r.id && !ids.insert(*r.id).second) c.fail(in[i]["id"], w + ".id", "duplicate report id");
+    p.input_reports.push_back(std::move(r));
+  }
+  bool has_q = false, all_q = true, has_rot = false;
+  for (const ReportLayout& r : p.input_reports)
+    for (const ReportField& f : r.fields) {
+      const bool q = f.axis >= Axis::QW && f.axis <= Axis::QZ;
+      has_q |= q;
+      has_rot |= f.axis >= Axis::RX && f.axis <= Axis::RZ;
+    }
+  if (has_q) {
+    for (Axis a : {Axis::QW, Axis::QX, Axis::QY, Axis::QZ}) {
+      bool found = false;
+      for (const ReportLayout& r : p.input_reports)
+        for (const ReportField& f : r.fields) found |= f.axis == a;
+      all_q &= found;
+    }
+    if (!all_q) c.fail(in, "input_reports", "an orientation needs all of qw, qx, qy, qz");
+  }
+  if (p.motion == Motion::Rate && has_q) c.fail(in, "input_reports", "a rate device has no qw..qz axes");
+  if (p.motion == Motion::Absolute && has_rot)
+    c.fail(in, "input_reports", "an absolute device has no rx, ry, rz rate axes");
+
+  if (root["output_report"]) {
+    p.output_report = parse_layout(c, root["output_report"], "output_report", true);
+    if (p.output_report->id.has_value() != p.numbered_reports())
+      c.fail(root["output_report"], "output_report.id", "numbered like the input reports");
+  }
+  if (root["max_force"]) p.max_force = c.number(root["max_force"], "max_force");
+  if (root["max_force_rate"]) p.max_force_rate = c.number(root["max_force_rate"], "max_force_rate");
+  if (p.max_force < 0.0) c.fail(root["max_force"], "max_force", "must be >= 0");
+  if (p.max_force_rate < 0.0) c.fail(root["max_force_rate"], "max_force_rate", "must be >= 0");
+  if (p.output_report && (p.max_force <= 0.0 || p.max_force_rate <= 0.0))
+    c.fail(root["output_report"], "output_report", "needs max_force and max_force_rate > 0");
+
+  if (root["usb"]) {
+    const YAML::Node u = root["usb"];
+    if (p.transport != Transport::Usb) c.fail(u, "usb", "only for transport: usb");
+    c.keys(u, "usb", {"interface", "in_endpoint", "out_endpoint", "transfer"});
+    if (u["interface"])
+      p.usb.interface = static_cast<int>(c.integer(u["interface"], "usb.interface", 0, 255));
+    if (u["in_endpoint"])
+      p.usb.in_endpoint =
+          static_cast<std::uint8_t>(c.integer(u["in_endpoint"], "usb.in_endpoint", 0x81, 0x8f));
+    if (u["out_endpoint"])
+      p.usb.out_endpoint =
+          static_cast<std::uint8_t>(c.integer(u["out_endpoint"], "usb.out_endpoint", 0x01, 0x0f));
+    if (u["transfer"]) {
+      const std::string t = c.str(u["transfer"], "usb.transfer");
+      if (t != "interrupt" && t != "bulk")
+        c.fail(u["transfer"], "usb.transfer", "expected interrupt or bulk");
+      p.usb.bulk = t == "bulk";
+    }
+  }
+  if (p.transport == Transport::Usb && p.output_report && p.usb.out_endpoint == 0)
+    c.fail(root["output_report"], "usb.out_endpoint", "an output report needs an out endpoint");
+  return p;
+}
+
+DeviceProfile load_device_profile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, 0, "", "cannot open");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_device_profile(ss.str(), path);
+}
+
+std::vector<DeviceProfile> load_device_profiles(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && e.path().extension() == ".yaml") files.push_back(e.path().string());
+  if (ec) throw InputError(dir, 0, 0, "", "cannot list: " + ec.message());
+  std::sort(files.begin(), files.end());
+  std::vector<DeviceProfile> out;
+  for (const std::string& f : files) out.push_back(load_device_profile(f));
+  return out;
+}
+
+ParseResult parse_report(const DeviceProfile& p, std::span<const std::uint8_t> report,
+                         ReportValues& out) noexcept {
+  out = ReportValues{};
+  if (report.empty()) return ParseResult::Short;
+  const ReportLayout* layout = p.input_layout(report[0]);
+  if (!layout) return ParseResult::Malformed;
+  if (report.size() < layout->length) return ParseResult::Short;
+  for (const ReportField& f : layout->fields) {
+    const double raw = read_raw(f.type, report.data() + f.offset);
+    if (!std::isfinite(raw)) return ParseResult::Malformed;
+    if (f.axis == Axis::Buttons) {
+      const std::uint64_t field_mask = ((std::uint64_t{1} << (8 * field_size(f.type))) - 1) << f.shift;
+      out.buttons_mask |= static_cast<std::uint32_t>(field_mask);
+      out.buttons |= static_cast<std::uint32_t>((static_cast<std::uint64_t>(raw) << f.shift) & field_mask);
+      continue;
+    }
+    const auto i = static_cast<std::size_t>(f.axis);
+    out.axis[i] = std::abs(raw) <= f.deadband ? 0.0 : raw * f.scale;
+    out.has[i] = true;
+  }
+  return ParseResult::Ok;
+}
+
+std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force,
+                         std::span<std::uint8_t> report) noexcept {
+  if (!p.output_report || report.size() < p.output_report->length) return 0;
+  const ReportLayout& r = *p.output_report;
+  std::fill(report.begin(), report.begin() + static_cast<std::ptrdiff_t>(r.length), std::uint8_t{0});
+  if (r.id) report[0] = *r.id;
+  for (const ReportField& f : r.fields) {
+    const double v = force[static_cast<int>(f.axis) - static_cast<int>(Axis::FX)];
+    write_raw(f.type, report.data() + f.offset, std::isfinite(v) ? v / f.scale : 0.0);
+  }
+  return r.length;
+}
+
+}  // namespace scalpel

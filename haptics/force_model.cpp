@@ -1,0 +1,47 @@
+#include "haptics/force_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace scalpel {
+
+ForceRenderer::ForceRenderer(ForceLimits limits, double rate) : limits_(limits), dt_(1.0 / rate) {
+  const double tau = 1.0 / (2.0 * std::numbers::pi * kVelocityCutoff);  // [s]
+  alpha_ = dt_ / (dt_ + tau);
+}
+
+Eigen::Vector3d ForceRenderer::render(const Eigen::Vector3d& x, const ForceModel* model,
+                                      bool enabled) noexcept {
+  if (has_x_)
+    v_ += alpha_ * ((x - x_prev_) / dt_ - v_);
+  else
+    v_.setZero();
+  x_prev_ = x;
+  has_x_ = true;
+
+  if (!enabled || model == nullptr || limits_.max_force <= 0.0) {
+    f_.setZero();
+    return f_;
+  }
+  const ForceModel& m = *model;
+  Eigen::Vector3d f = m.coupling_stiffness * (m.constrained_position - x) +
+                      m.coupling_damping * (m.constrained_velocity - v_);
+  if (m.contact) {
+    const double depth = m.contact_offset - m.contact_normal.dot(x);  // [m]
+    if (depth > 0.0) f += m.contact_stiffness * depth * m.contact_normal;
+  }
+  if (m.cutting_resistance > 0.0) f -= m.cutting_resistance * v_ / std::max(v_.norm(), kCutSpeedFloor);
+  if (!f.allFinite()) f.setZero();
+
+  const double n = f.norm();
+  if (n > limits_.max_force) f *= limits_.max_force / n;
+  // Rate limit: move from the last force towards the target by at most max_force_rate * dt.
+  const Eigen::Vector3d step = f - f_;
+  const double max_step = limits_.max_force_rate * dt_;
+  const double s = step.norm();
+  f_ = s > max_step ? Eigen::Vector3d(f_ + step * (max_step / s)) : f;
+  return f_;
+}
+
+}  // namespace scalpel

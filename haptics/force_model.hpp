@@ -1,0 +1,77 @@
+// The force model the simulation publishes at its visual rate and the haptic loop renders at 1 kHz
+// (DESIGN section 1): a local model of the contact, valid between two simulation frames, in the
+// manner of the intermediate representation of Adachi et al. 1995, so the 1 kHz force follows the
+// device even though the simulation answers at 60 Hz.
+//
+// Rendered force on the tool [N], x the tool position, v its velocity:
+//   coupling (virtual coupling, Colgate et al. 1995):  k_c (x_c - x) + b_c (v_c - v)
+//   contact (a penalty plane, n the outward tissue normal, the tissue where n.x < d):
+//                                                      k_s max(0, d - n.x) n
+//   cutting resistance (against the blade's motion):   -R v / max(|v|, v_eps)
+// The simulation sets k_c to zero while the tool is free. The sum is clamped to the device's force
+// limit and rate-limited; it is zero on a device fault, before any model, and while the
+// simulation stalls.
+#pragma once
+
+#include <cstdint>
+#include <type_traits>
+
+#include <Eigen/Core>
+
+#include "devices/triple_buffer.hpp"
+
+namespace scalpel {
+
+// Plain data (fixed-size Eigen vectors, no pointers): copied whole through the channel.
+struct ForceModel {
+  std::uint64_t sequence = 0;  // increases with every publication; 0 before the first
+  double t = 0.0;              // [s] simulation time it was computed for
+
+  double coupling_stiffness = 0.0;                                 // k_c [N/m]
+  double coupling_damping = 0.0;                                   // b_c [N s/m]
+  Eigen::Vector3d constrained_position = Eigen::Vector3d::Zero();  // x_c [m]
+  Eigen::Vector3d constrained_velocity = Eigen::Vector3d::Zero();  // v_c [m/s]
+
+  bool contact = false;
+  Eigen::Vector3d contact_normal = Eigen::Vector3d::UnitY();  // n, unit, out of the tissue
+  double contact_offset = 0.0;                                // d [m]: the plane n.x = d
+  double contact_stiffness = 0.0;                             // k_s [N/m]
+
+  double cutting_resistance = 0.0;  // R [N], 0 while not cutting
+};
+
+// Simulation thread publishes, haptic thread reads; wait-free both ways.
+using ForceChannel = TripleBuffer<ForceModel>;
+
+struct ForceLimits {
+  double max_force = 0.0;       // [N] magnitude
+  double max_force_rate = 0.0;  // [N/s] magnitude of the change
+};
+
+// The force rendering of one haptic cycle. Deterministic; one instance per haptic thread.
+class ForceRenderer {
+ public:
+  ForceRenderer(ForceLimits limits, double rate);
+
+  // Tool position x [m] of this cycle; `model` null when there is none, `enabled` false on a device
+  // fault or a stalled simulation (the force drops to zero at once, and ramps up again afterwards).
+  Eigen::Vector3d render(const Eigen::Vector3d& x, const ForceModel* model, bool enabled) noexcept;
+  // Forget the velocity estimate (after a gap in the tool's motion).
+  void reset_motion() noexcept { has_x_ = false; }
+
+  [[nodiscard]] const Eigen::Vector3d& velocity() const { return v_; }  // [m/s] filtered estimate
+
+  static constexpr double kVelocityCutoff = 50.0;  // [Hz] first-order low-pass on the velocity
+  static constexpr double kCutSpeedFloor = 0.01;   // v_eps [m/s]
+
+ private:
+  ForceLimits limits_;
+  double dt_;     // [s]
+  double alpha_;  // low-pass gain per cycle
+  Eigen::Vector3d x_prev_ = Eigen::Vector3d::Zero();
+  bool has_x_ = false;
+  Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d f_ = Eigen::Vector3d::Zero();  // last force sent [N]
+};
+
+}  // namespace scalpel

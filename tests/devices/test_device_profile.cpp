@@ -1,0 +1,155 @@
+#include <doctest/doctest.h>
+
+#include <filesystem>
+
+#include "cutting/input_error.hpp"
+#include "devices/device_profile.hpp"
+#include "tests/devices/fake_transport.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+const std::string kProfiles = std::string(SCALPEL_SOURCE_DIR) + "/config/devices";
+const std::string kData = std::string(SCALPEL_TEST_DATA_DIR) + "/hid";
+
+DeviceProfile shipped(const std::string& stem) {
+  return load_device_profile(kProfiles + "/" + stem + ".yaml");
+}
+
+double value(const ReportValues& v, Axis a) {
+  return v.axis[static_cast<std::size_t>(a)];
+}
+bool has(const ReportValues& v, Axis a) {
+  return v.has[static_cast<std::size_t>(a)];
+}
+
+const char* kMinimal = R"(name: test
+transport: hid
+match: [{vendor_id: 0x1234, product_id: 0x5678}]
+motion: absolute
+workspace: {min: [-1, -1, -1], max: [1, 1, 1]}
+input_reports:
+  - id: 1
+    length: 13
+    fields:
+      - {axis: x, offset: 1, type: f32le}
+      - {axis: y, offset: 5, type: f32le}
+      - {axis: z, offset: 9, type: f32le}
+)";
+
+}  // namespace
+
+TEST_CASE("every shipped device profile loads and has raw report data") {
+  const std::vector<DeviceProfile> all = load_device_profiles(kProfiles);
+  REQUIRE(all.size() == 3);
+  for (const DeviceProfile& p : all) {
+    CAPTURE(p.file);
+    const std::string stem = std::filesystem::path(p.file).stem().string();
+    CHECK(std::filesystem::exists(kData + "/" + stem + ".txt"));
+    CHECK_FALSE(p.match.empty());
+  }
+}
+
+TEST_CASE("legacy SpaceMouse reports parse into mapped rates") {
+  const DeviceProfile p = shipped("spacemouse_legacy");
+  CHECK(p.motion == Motion::Rate);
+  CHECK(p.matches(0x046d, 0xc626));
+  const auto r = test::load_reports(kData + "/spacemouse_legacy.txt");
+  ReportValues v;
+  REQUIRE(parse_report(p, r.at("translation"), v) == ParseResult::Ok);
+  CHECK(value(v, Axis::X) == doctest::Approx(350 * 2e-4));
+  CHECK(value(v, Axis::Z) == doctest::Approx(-100 * 2e-4));  // device y -> world z
+  CHECK(value(v, Axis::Y) == doctest::Approx(-20 * 2e-4));   // device z (down) -> world -y
+  CHECK_FALSE(has(v, Axis::RX));
+  REQUIRE(parse_report(p, r.at("rotation"), v) == ParseResult::Ok);
+  CHECK(value(v, Axis::RX) == doctest::Approx(-200 * 2e-3));
+  CHECK(value(v, Axis::RY) == 0.0);  // 5 counts: inside the dead band
+  CHECK(value(v, Axis::RZ) == 0.0);
+  REQUIRE(parse_report(p, r.at("buttons"), v) == ParseResult::Ok);
+  CHECK(v.buttons == 2);
+  CHECK(v.buttons_mask == 0xff);
+  CHECK(parse_report(p, r.at("short"), v) == ParseResult::Short);
+  CHECK(parse_report(p, r.at("unknown_id"), v) == ParseResult::Malformed);
+}
+
+TEST_CASE("SpaceMouse reports carry translation and rotation in report 1") {
+  const DeviceProfile p = shipped("spacemouse");
+  CHECK(p.matches(0x256f, 0xc635));
+  const auto r = test::load_reports(kData + "/spacemouse.txt");
+  ReportValues v;
+  REQUIRE(parse_report(p, r.at("motion"), v) == ParseResult::Ok);
+  CHECK(value(v, Axis::X) == doctest::Approx(0.02));
+  CHECK(value(v, Axis::Z) == 0.0);
+  CHECK(value(v, Axis::Y) == doctest::Approx(0.01));
+  CHECK(value(v, Axis::RX) == 0.0);
+  CHECK(value(v, Axis::RZ) == doctest::Approx(0.6));
+  CHECK(value(v, Axis::RY) == 0.0);  // -4 counts: dead band
+  REQUIRE(parse_report(p, r.at("buttons"), v) == ParseResult::Ok);
+  CHECK(v.buttons == 1);
+  CHECK(parse_report(p, r.at("short"), v) == ParseResult::Short);
+}
+
+TEST_CASE("generic stylus reports parse into a pose and forces encode into its output report") {
+  const DeviceProfile p = shipped("generic_stylus");
+  CHECK(p.motion == Motion::Absolute);
+  const auto r = test::load_reports(kData + "/generic_stylus.txt");
+  ReportValues v;
+  REQUIRE(parse_report(p, r.at("pose"), v) == ParseResult::Ok);
+  CHECK(value(v, Axis::X) == doctest::Approx(0.1));
+  CHECK(value(v, Axis::Y) == doctest::Approx(-0.05));
+  CHECK(value(v, Axis::Z) == doctest::Approx(0.00025));
+  CHECK(value(v, Axis::QW) == doctest::Approx(std::sqrt(0.5)).epsilon(1e-4));
+  CHECK(value(v, Axis::QY) == doctest::Approx(std::sqrt(0.5)).epsilon(1e-4));
+  CHECK(v.buttons == 1);
+  CHECK(parse_report(p, r.at("short"), v) == ParseResult::Short);
+
+  std::array<std::uint8_t, 16> out{};
+  REQUIRE(encode_force(p, Eigen::Vector3d(1.0, -0.5, 0.25), out) == 7);
+  CHECK(std::vector<std::uint8_t>(out.begin(), out.begin() + 7) == r.at("force_out"));
+  // Saturation at the type's range, not wrap-around.
+  REQUIRE(encode_force(p, Eigen::Vector3d(100.0, 0, 0), out) == 7);
+  CHECK(out[1] == 0xff);
+  CHECK(out[2] == 0x7f);
+}
+
+TEST_CASE("non-finite float fields make a report malformed") {
+  const DeviceProfile p = parse_device_profile(kMinimal, "mem.yaml");
+  std::vector<std::uint8_t> rep(13, 0);
+  rep[0] = 1;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(rep.data() + 5, &nan, 4);
+  ReportValues v;
+  CHECK(parse_report(p, rep, v) == ParseResult::Malformed);
+}
+
+TEST_CASE("profile errors name the file, line and key") {
+  const auto error_of = [](const std::string& text) -> std::string {
+    try {
+      (void)parse_device_profile(text, "bad.yaml");
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  std::string t = kMinimal;
+  CHECK(error_of(t + "colour: red\n") == "bad.yaml:13:1: colour: unknown key");
+  std::string wrong_type = t;
+  wrong_type.replace(wrong_type.find("type: f32le}\n      - {axis: y"), 11, "type: f64le");
+  CHECK(error_of(wrong_type).find("bad.yaml:10:") == 0);
+  CHECK(error_of(wrong_type).find("input_reports[0].fields[0].type: unknown type 'f64le'") !=
+        std::string::npos);
+  std::string past_end = t;
+  past_end.replace(past_end.find("offset: 9"), 9, "offset: 11");
+  CHECK(error_of(past_end).find("input_reports[0].fields[2].offset: field ends past the report length 13") !=
+        std::string::npos);
+  std::string bad_vid = t;
+  bad_vid.replace(bad_vid.find("0x1234"), 6, "0x12345");
+  CHECK(error_of(bad_vid).find("bad.yaml:3:") == 0);
+  CHECK(error_of(bad_vid).find("match[0].vendor_id: out of range") != std::string::npos);
+  std::string no_motion = t;
+  no_motion.replace(no_motion.find("motion: absolute\n"), 17, "");
+  CHECK(error_of(no_motion).find("motion: missing") != std::string::npos);
+  CHECK(error_of("name: [unclosed").find("bad.yaml:") == 0);
+  CHECK_THROWS_AS((void)load_device_profile("/nonexistent/profile.yaml"), InputError);
+}
