@@ -150,7 +150,8 @@ class BladeSweep {
   void on_tet_added(std::uint32_t tet);
   void on_tet_removed(std::uint32_t tet);
   // After node positions changed: O(number of tetrahedra); leaves whose tight box left their fat box
-  // get a new fat box and their ancestors are recomputed. Returns how many leaves moved.
+  // get a new fat box and their ancestors are recomputed (by walks up from each when few moved, by
+  // one bottom-up pass otherwise). The tree's shape is kept. Returns how many leaves moved.
   std::size_t refit();
   // Rebuilds the tree over all live tetrahedra (balanced, tight fat boxes).
   void rebuild();

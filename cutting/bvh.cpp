@@ -118,6 +118,24 @@ void AabbTree::set_leaf_box(std::int32_t leaf, const Aabb& box) {
   }
 }
 
+void AabbTree::refit_internal(std::vector<std::int32_t>& order) {
+  order.clear();
+  if (root_ == kNullNode) return;
+  // Pre-order lists every parent before its children; the reverse visits children first.
+  order.push_back(root_);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const Node& n = at(order[i]);
+    if (!n.is_leaf()) {
+      order.push_back(n.child1);
+      order.push_back(n.child2);
+    }
+  }
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    Node& n = at(*it);
+    if (!n.is_leaf()) n.box = Aabb::merged(at(n.child1).box, at(n.child2).box);
+  }
+}
+
 void AabbTree::fix_upwards(std::int32_t id) {
   while (id != kNullNode) {
     id = balance(id);

@@ -469,8 +469,17 @@ TEST_CASE("after deformation, refit and incremental updates the tree query equal
       const Vec3 bend(0.05 * std::sin(3.0 * x0.y() + round), 0.03 * std::cos(2.0 * x0.z()), 0.0);
       m.positions()[n] = x0 + bend + 0.2 * Vec3(noise(rng), noise(rng), noise(rng));
     }
-    fast.refit();
+    CHECK(fast.refit() > m.tet_count() / 2);
     CHECK(fast.tree().validate().empty());
+    if (round == 1) {
+      // One node pushed far: only its tetrahedra leave their fat boxes.
+      const std::uint32_t n = 4 * 81 + 4 * 9 + 4;
+      m.positions()[n] += Vec3(0.03, -0.02, 0.01);
+      const std::size_t moved = fast.refit();
+      CHECK(moved >= 1);
+      CHECK(moved <= m.node_tets(m.node_handle(n)).size());
+      CHECK(fast.tree().validate().empty());
+    }
     if (round >= 2) {
       // The cutter's pattern: replace tetrahedra by children around a new interior node.
       for (int k = 0; k < 40; ++k) {
