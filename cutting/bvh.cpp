@@ -155,10 +155,9 @@ std::int32_t AabbTree::balance(std::int32_t a) {
   const std::int32_t b = at(a).child1, c = at(a).child2;
   const int diff = at(c).height - at(b).height;
   if (diff >= -1 && diff <= 1) return a;
-  // `up` is the taller child, `keep` the other; `up` replaces `a`, and `a` becomes its child.
+  // `up` is the taller child; it replaces `a`, and `a` becomes its child.
   const bool right = diff > 1;
   const std::int32_t up = right ? c : b;
-  const std::int32_t keep = right ? b : c;
   const std::int32_t f = at(up).child1, g = at(up).child2;
   const std::int32_t a_parent = at(a).parent;
   at(up).child1 = a;
@@ -182,7 +181,6 @@ std::int32_t AabbTree::balance(std::int32_t a) {
     at(a).child1 = move;
   }
   at(move).parent = a;
-  (void)keep;
   at(a).box = Aabb::merged(at(at(a).child1).box, at(at(a).child2).box);
   at(a).height = 1 + std::max(at(at(a).child1).height, at(at(a).child2).height);
   at(up).box = Aabb::merged(at(a).box, at(stay).box);
