@@ -210,13 +210,22 @@ void BladeSweep::on_tet_removed(std::uint32_t tet) {
 }
 
 std::size_t BladeSweep::refit() {
+  // Few escaped leaves: walk up from each (O(depth) per leaf, stops early). Many: one bottom-up
+  // pass over the whole tree, O(n).
+  const std::size_t walk_limit = tree_.leaf_count() / 16;
   std::size_t moved = 0;
+  stack_.clear();
   for (std::uint32_t t = 0; t < leaf_of_tet_.size(); ++t) {
     const std::int32_t leaf = leaf_of_tet_[t];
     if (leaf == AabbTree::kNullNode || !mesh_.tet_slot_alive(t)) continue;
     if (tree_.node(leaf).box.contains(tight_box(t))) continue;
-    tree_.set_leaf_box(leaf, fat_box(t));
-    ++moved;
+    tree_.set_leaf_box_only(leaf, fat_box(t));
+    if (++moved <= walk_limit) stack_.push_back(leaf);
+  }
+  if (moved > walk_limit) {
+    tree_.refit_internal(stack_);
+  } else {
+    for (const std::int32_t leaf : stack_) tree_.set_leaf_box(leaf, tree_.node(leaf).box);
   }
   return moved;
 }

@@ -33,7 +33,11 @@
 //     on the current blade line is in this sweep or the next one, never both (when the blade keeps
 //     moving the same way);
 //   - a tip passing exactly through a face edge or vertex pierces exactly one of the faces there.
-// Degenerate blade triangles (zero area, e.g. a back point that did not move) are skipped.
+// Degenerate blade triangles (zero area, e.g. a back point that did not move) are skipped. A twisted
+// quad is folded along its diagonal: an edge that really crosses both triangles is reported twice,
+// with two values of u (it ends on the side it started from).
+//
+// Threads: a BladeSweep belongs to the thread that owns the mesh (the sim thread).
 // Parameters and points are then computed in floating point from the same determinants and
 // clamped to their ranges: t is 0 or 1 only when the edge passes through an end node.
 //
@@ -150,7 +154,8 @@ class BladeSweep {
   void on_tet_added(std::uint32_t tet);
   void on_tet_removed(std::uint32_t tet);
   // After node positions changed: O(number of tetrahedra); leaves whose tight box left their fat box
-  // get a new fat box and their ancestors are recomputed. Returns how many leaves moved.
+  // get a new fat box and their ancestors are recomputed (by walks up from each when few moved, by
+  // one bottom-up pass otherwise). The tree's shape is kept. Returns how many leaves moved.
   std::size_t refit();
   // Rebuilds the tree over all live tetrahedra (balanced, tight fat boxes).
   void rebuild();
@@ -177,8 +182,6 @@ class BladeSweep {
   Aabb fat_box(std::uint32_t tet) const;
   Aabb tight_box(std::uint32_t tet) const;
   void gather_candidates(const std::array<Vec3, 4>& quad);
-  void face_segment(const Vec3& x0, const Vec3& x1, std::size_t group_begin, std::size_t group_end,
-                    std::vector<FacePierce>& pierces);
 
   const TetMesh& mesh_;
   Options options_;

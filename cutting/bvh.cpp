@@ -118,6 +118,24 @@ void AabbTree::set_leaf_box(std::int32_t leaf, const Aabb& box) {
   }
 }
 
+void AabbTree::refit_internal(std::vector<std::int32_t>& order) {
+  order.clear();
+  if (root_ == kNullNode) return;
+  // Pre-order lists every parent before its children; the reverse visits children first.
+  order.push_back(root_);
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const Node& n = at(order[i]);
+    if (!n.is_leaf()) {
+      order.push_back(n.child1);
+      order.push_back(n.child2);
+    }
+  }
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    Node& n = at(*it);
+    if (!n.is_leaf()) n.box = Aabb::merged(at(n.child1).box, at(n.child2).box);
+  }
+}
+
 void AabbTree::fix_upwards(std::int32_t id) {
   while (id != kNullNode) {
     id = balance(id);
@@ -137,10 +155,9 @@ std::int32_t AabbTree::balance(std::int32_t a) {
   const std::int32_t b = at(a).child1, c = at(a).child2;
   const int diff = at(c).height - at(b).height;
   if (diff >= -1 && diff <= 1) return a;
-  // `up` is the taller child, `keep` the other; `up` replaces `a`, and `a` becomes its child.
+  // `up` is the taller child; it replaces `a`, and `a` becomes its child.
   const bool right = diff > 1;
   const std::int32_t up = right ? c : b;
-  const std::int32_t keep = right ? b : c;
   const std::int32_t f = at(up).child1, g = at(up).child2;
   const std::int32_t a_parent = at(a).parent;
   at(up).child1 = a;
@@ -164,7 +181,6 @@ std::int32_t AabbTree::balance(std::int32_t a) {
     at(a).child1 = move;
   }
   at(move).parent = a;
-  (void)keep;
   at(a).box = Aabb::merged(at(at(a).child1).box, at(at(a).child2).box);
   at(a).height = 1 + std::max(at(at(a).child1).height, at(at(a).child2).height);
   at(up).box = Aabb::merged(at(a).box, at(stay).box);

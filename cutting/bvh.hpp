@@ -79,6 +79,10 @@ class AabbTree {
   // Sets a leaf's box and recomputes its ancestors (exact unions), stopping as soon as an
   // ancestor's box does not change. Keeps the tree's shape.
   void set_leaf_box(std::int32_t leaf, const Aabb& box);
+  // Sets a leaf's box without touching its ancestors; call refit_internal() before the next query.
+  void set_leaf_box_only(std::int32_t leaf, const Aabb& box) { at(leaf).box = box; }
+  // Recomputes every internal box from its children, bottom-up: O(nodes). `order` is scratch.
+  void refit_internal(std::vector<std::int32_t>& order);
 
   // Visits every leaf whose box passes `overlap(const Aabb&)` on it and on all its ancestors;
   // `visit(payload)` is called in a deterministic order. `stack` is scratch (capacity reused).
