@@ -205,7 +205,7 @@ void CutEngine::place_cut_node(std::uint32_t id) {
   for (const NodeId c : n.copies) {
     mesh_.set_rest(c, r);
     mesh_.set_position(c, x);
-    moved_nodes_.push_back(c);
+    changes_.moved_nodes.push_back(c);
   }
 }
 
@@ -437,7 +437,7 @@ void CutEngine::regroup(std::uint32_t id) {
     p.parents[0] = n.copies[0];
     p.weights[0] = 1.0;
     p.count = 1;
-    n.copies.push_back(mesh_.add_interpolated_node(p));
+    n.copies.push_back(add_node(p));
   }
   n.group_of.clear();
   for (std::uint32_t i = 0; i < items.size(); ++i)
@@ -481,11 +481,13 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
   const int region = coarse_.region(coarse_.tet_handle(t));
   for (std::size_t i = 0; i < c.live.size(); ++i) {
     if (kept[i]) continue;
+    changes_.removed_tets.push_back(c.live[i].index);
     mesh_.remove_tet(c.live[i]);
     ++stats.tets_removed;
   }
   for (const std::size_t s : to_add) {
     live[s] = mesh_.add_tet(real[s], region);
+    changes_.added_tets.push_back(live[s]);
     mesh_.set_parent(live[s], parent);
     if (live_to_coarse_.size() <= live[s].index) live_to_coarse_.resize(live[s].index + 1, kInvalidIndex);
     live_to_coarse_[live[s].index] = t;
@@ -551,7 +553,7 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected, CutStepStats& st
 
 CutStepStats CutEngine::step(const BladePose& pose) {
   CutStepStats stats;
-  moved_nodes_.clear();
+  changes_.clear();
   if (!placed_) {
     place(pose);
     totals_.add(stats);
@@ -578,7 +580,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       p.parents[static_cast<size_t>(i)] = mesh_.node_handle(key[static_cast<size_t>(i)]);
       p.weights[static_cast<size_t>(i)] = bary[i];
     }
-    n.copies.push_back(mesh_.add_interpolated_node(p));
+    n.copies.push_back(add_node(p));
     cut_nodes_.push_back(std::move(n));
     return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
   };
@@ -691,7 +693,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 
 CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool complete) {
   CutStepStats stats;
-  moved_nodes_.clear();
+  changes_.clear();
   const std::size_t nodes_before = mesh_.node_count();
   const auto& v = coarse_.tet_vertex_indices(t);
   std::set<Key3> faces;
@@ -707,7 +709,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
       p.parents[static_cast<size_t>(i)] = mesh_.node_handle(k[static_cast<size_t>(i)]);
       p.weights[static_cast<size_t>(i)] = w[i];
     }
-    n.copies.push_back(mesh_.add_interpolated_node(p));
+    n.copies.push_back(add_node(p));
     cut_nodes_.push_back(std::move(n));
     map.emplace(k, static_cast<std::uint32_t>(cut_nodes_.size() - 1));
     return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
@@ -749,6 +751,20 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   stats.nodes_created = mesh_.node_count() - nodes_before;
   totals_.add(stats);
   return stats;
+}
+
+NodeId CutEngine::add_node(const NodeParents& parents) {
+  const NodeId n = mesh_.add_interpolated_node(parents);
+  changes_.added_nodes.push_back(n);
+  changes_.added_node_parents.push_back(parents);
+  return n;
+}
+
+std::vector<Vec3> CutEngine::edge_cut_points() const {
+  std::vector<Vec3> out;
+  for (const CutNode& n : cut_nodes_)
+    if (n.kind == CutNode::Kind::Edge) out.push_back(mesh_.rest(n.copies[0]));
+  return out;
 }
 
 double CutEngine::cut_surface_area() const {

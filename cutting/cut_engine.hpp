@@ -52,6 +52,22 @@ struct CutOptions {
   const CutTable* table = nullptr;
 };
 
+// The topology changes of the last step, for the tissue model (DESIGN §6).
+struct CutChanges {
+  std::vector<std::uint32_t> removed_tets;  // live tet slots removed (before the new ones were added)
+  std::vector<TetId> added_tets;
+  std::vector<NodeId> added_nodes;
+  std::vector<NodeParents> added_node_parents;  // weights over existing nodes, one per added node
+  std::vector<NodeId> moved_nodes;              // rest and current position changed (sliding mid nodes)
+  void clear() {
+    removed_tets.clear();
+    added_tets.clear();
+    added_nodes.clear();
+    added_node_parents.clear();
+    moved_nodes.clear();
+  }
+};
+
 // What one tool sample did.
 struct CutStepStats {
   std::size_t edges_cut = 0;           // forward crossings that split an edge
@@ -103,9 +119,11 @@ class CutEngine {
   [[nodiscard]] std::uint32_t coarse_of(TetId live) const;
   // Number of live sub-tetrahedra per cut coarse tetrahedron, for statistics.
   [[nodiscard]] std::vector<std::size_t> subdivision_sizes() const;
-  // Nodes whose rest position changed in the last step (mid nodes that slid with the blade); the
-  // tissue model must refresh the rest data of their elements.
-  [[nodiscard]] const std::vector<NodeId>& moved_nodes() const { return moved_nodes_; }
+  // What the last step changed; moved nodes are mid nodes that slid with the blade, whose
+  // elements need their rest data refreshed.
+  [[nodiscard]] const CutChanges& changes() const { return changes_; }
+  // Rest positions of the cut points on edges, in the order they were cut (for task scoring).
+  [[nodiscard]] std::vector<Vec3> edge_cut_points() const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
 
@@ -119,6 +137,7 @@ class CutEngine {
   std::uint32_t face_node(const std::map<std::array<std::uint32_t, 3>, std::uint32_t>& map,
                           const std::array<std::uint32_t, 3>& key) const;
   void place_cut_node(std::uint32_t id);
+  NodeId add_node(const NodeParents& parents);
   void update_face_position(std::uint32_t id);
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
@@ -146,7 +165,7 @@ class CutEngine {
   std::map<std::array<std::uint32_t, 3>, std::uint32_t> entry_nodes_;  // key: sorted face slots
   std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
   std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
-  std::vector<NodeId> moved_nodes_;
+  CutChanges changes_;
   CutTotals totals_;
 };
 

@@ -1,6 +1,175 @@
+// scalpelsim: the command-line program. Every command prints its own --help.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
 #include <iostream>
 
-int main() {
-  std::cerr << "scalpelsim: no commands yet\n";
-  return 1;
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "cutting/input_error.hpp"
+#include "cutting/mesh_io.hpp"
+#include "cutting/quality.hpp"
+#include "cutting/validate.hpp"
+#include "sim/log_generator.hpp"
+#include "sim/replay.hpp"
+#include "sim/scenario.hpp"
+#include "sim/simulation.hpp"
+#include "sim/version.hpp"
+
+namespace fs = std::filesystem;
+using namespace scalpel;
+
+namespace {
+
+// The bundled default scenario, found next to the program's source tree or the working directory.
+fs::path default_scenario() {
+  const fs::path relative = "config/scenarios/skin_incision.yaml";
+  for (fs::path dir = fs::current_path(); !dir.empty(); dir = dir.parent_path()) {
+    if (fs::exists(dir / relative)) return dir / relative;
+    if (dir == dir.parent_path()) break;
+  }
+  return fs::path(SCALPEL_SOURCE_DIR) / relative;
+}
+
+void print_progress(double fraction) {
+  constexpr int kWidth = 40;
+  const int filled = static_cast<int>(fraction * kWidth);
+  std::fprintf(stderr, "\r[%.*s%*s] %3d%%", filled, "########################################", kWidth - filled, "",
+               static_cast<int>(fraction * 100));
+  if (fraction >= 1.0) std::fprintf(stderr, "\n");
+}
+
+int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out, bool no_progress) {
+  const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
+  const Scenario scenario = load_scenario(scenario_path);
+  fs::path log_path = log_arg;
+  if (log_path.empty()) {
+    if (!scenario.log) throw InputError(scenario_path.string(), 0, 0, "log", "no pose log given and the scenario names none");
+    log_path = *scenario.log;
+  }
+  ReplayOptions options;
+  options.out_dir = out;
+  if (!no_progress && isatty(STDERR_FILENO)) options.progress = print_progress;
+  const ReplayResult r = replay(scenario, log_path, options);
+  const auto& c = r.report["cutting"];
+  std::cout << "replayed " << r.report["replay"]["samples"] << " samples of " << log_path.string() << " on "
+            << scenario_path.string() << "\n"
+            << "  edges cut " << c["edges_cut"] << ", tetrahedra " << r.report["mesh"]["initial"]["tetrahedra"] << " -> "
+            << r.report["mesh"]["final"]["tetrahedra"] << ", cut surface " << c["cut_surface_area"].get<double>() * 1e6
+            << " mm^2\n";
+  if (r.report.contains("task"))
+    std::cout << "  task score " << r.report["task"]["score"].get<double>() << " (coverage "
+              << r.report["task"]["coverage"].get<double>() * 100 << " %)\n";
+  std::cout << "  invariants " << (r.invariants_ok ? "hold" : "BROKEN") << "\n"
+            << "  wrote " << (fs::path(out) / "report.json").string() << " and " << (fs::path(out) / "mesh.vtu").string()
+            << "\n";
+  return r.invariants_ok ? 0 : 1;
+}
+
+int cmd_validate(const std::string& path) {
+  const Scenario scenario = load_scenario(path);
+  const ScenarioMesh m = load_scenario_mesh(scenario);
+  (void)resolve_materials(scenario, m.regions, m.mesh);
+  (void)select_fixed_nodes(scenario, m.mesh);
+  const auto report = validate(m.mesh, {.reference_volume = m.mesh.total_rest_volume()});
+  const MeshSummary s = summarize(m.mesh);
+  std::cout << path << ": scenario '" << scenario.name << "', " << s.tets << " tetrahedra, " << s.nodes << " nodes, "
+            << s.regions << " regions\n";
+  if (!report.ok()) {
+    std::cout << report.summary();
+    return 1;
+  }
+  std::cout << "  mesh invariants hold\n";
+  if (scenario.log && !fs::exists(*scenario.log))
+    throw InputError(path, 0, 0, "log", "the pose log '" + scenario.log->string() + "' does not exist");
+  return 0;
+}
+
+int cmd_inspect(const std::string& path, bool as_json) {
+  MeshFileInfo info;
+  const TetMesh mesh = read_mesh(path, &info);
+  const MeshSummary s = summarize(mesh);
+  const auto report = validate(mesh, {.reference_volume = s.rest_volume});
+  if (as_json) {
+    nlohmann::ordered_json j;
+    j["file"] = path;
+    j["nodes"] = s.nodes;
+    j["tetrahedra"] = s.tets;
+    j["boundary_faces"] = s.boundary_faces;
+    j["components"] = s.components;
+    j["regions"] = s.regions;
+    j["rest_volume"] = s.rest_volume;
+    j["bounding_box"] = {{"min", {s.box_min.x(), s.box_min.y(), s.box_min.z()}},
+                         {"max", {s.box_max.x(), s.box_max.y(), s.box_max.z()}}};
+    j["quality"] = {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}};
+    j["edge_length"] = {{"min", s.edge_min}, {"max", s.edge_max}};
+    j["reoriented_tetrahedra"] = info.reoriented_tets;
+    j["invariants"] = {{"oriented", report.passed[1]},
+                       {"conforming", report.passed[2]},
+                       {"watertight", report.passed[3]},
+                       {"volume", report.passed[4]}};
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::cout << path << "\n"
+              << "  nodes " << s.nodes << ", tetrahedra " << s.tets << ", boundary faces " << s.boundary_faces << "\n"
+              << "  components " << s.components << ", regions " << s.regions << ", volume " << s.rest_volume << " m^3\n"
+              << "  quality (6 sqrt2 V / l_rms^3) min " << s.quality_min << ", mean " << s.quality_mean << ", max "
+              << s.quality_max << ", slivers (< 0.1) " << s.slivers << "\n"
+              << "  edge length min " << s.edge_min << " m, max " << s.edge_max << " m\n"
+              << "  invariants: " << (report.ok() ? "all hold" : "BROKEN") << "\n";
+    if (!report.ok()) std::cout << report.summary();
+  }
+  return report.ok() ? 0 : 1;
+}
+
+int cmd_make_log(const std::string& scenario_path, const std::string& out) {
+  const Scenario scenario = load_scenario(scenario_path);
+  write_task_log(scenario, out);
+  std::cout << "wrote " << out << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"scalpelsim: real-time progressive cutting of tetrahedral meshes"};
+  app.set_version_flag("--version", std::string(version()));
+  app.require_subcommand(1);
+
+  std::string scenario, log, out = "out", mesh_path, make_log_out;
+  bool json = false, no_progress = false;
+
+  auto* replay_cmd = app.add_subcommand("replay", "Replay a pose log headless; writes report.json and mesh.vtu");
+  replay_cmd->add_option("scenario", scenario, "Scenario YAML (default: config/scenarios/skin_incision.yaml)");
+  replay_cmd->add_option("log", log, "Pose log CSV (default: the scenario's `log`)");
+  replay_cmd->add_option("--out", out, "Output folder")->capture_default_str();
+  replay_cmd->add_flag("--no-progress", no_progress, "No progress bar on the terminal");
+
+  auto* validate_cmd = app.add_subcommand("validate", "Check a scenario and its mesh without running it");
+  validate_cmd->add_option("scenario", scenario, "Scenario YAML")->required();
+
+  auto* inspect_cmd = app.add_subcommand("inspect", "Counts, volume, components, quality and invariants of a mesh file");
+  inspect_cmd->add_option("mesh", mesh_path, "Mesh file: .msh (2.2/4.1 ASCII), .node/.ele, .vtu")->required();
+  inspect_cmd->add_flag("--json", json, "Print JSON");
+
+  auto* make_log_cmd = app.add_subcommand("make-log", "Generate the pose log of a scenario's task (the bundled log)");
+  make_log_cmd->add_option("scenario", scenario, "Scenario YAML with a task")->required();
+  make_log_cmd->add_option("--out", make_log_out, "Pose log to write")->required();
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress);
+    if (*validate_cmd) return cmd_validate(scenario);
+    if (*inspect_cmd) return cmd_inspect(mesh_path, json);
+    if (*make_log_cmd) return cmd_make_log(scenario, make_log_out);
+  } catch (const InputError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 3;
+  }
+  return 0;
 }

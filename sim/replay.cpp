@@ -1,0 +1,251 @@
+#include "sim/replay.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+
+#include "cutting/input_error.hpp"
+#include "cutting/mesh_io.hpp"
+#include "cutting/quality.hpp"
+#include "cutting/topology.hpp"
+#include "cutting/validate.hpp"
+#include "devices/mock_device.hpp"
+#include "devices/pose_log.hpp"
+#include "haptics/haptic_loop.hpp"
+#include "haptics/tool_queue.hpp"
+#include "sim/simulation.hpp"
+#include "sim/version.hpp"
+
+namespace scalpel {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+json percentiles(std::vector<double> v, double scale) {
+  json j;
+  if (v.empty()) return j;
+  std::sort(v.begin(), v.end());
+  auto at = [&](double q) { return v[static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1)))] * scale; };
+  j["p50"] = at(0.50);
+  j["p95"] = at(0.95);
+  j["p99"] = at(0.99);
+  j["max"] = v.back() * scale;
+  return j;
+}
+
+json mesh_json(const MeshSummary& s) {
+  return {{"nodes", s.nodes},
+          {"tetrahedra", s.tets},
+          {"boundary_faces", s.boundary_faces},
+          {"components", s.components},
+          {"regions", s.regions},
+          {"rest_volume", s.rest_volume},
+          {"quality", {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}}}};
+}
+
+// Distance from p to the polyline in the xy plane [m].
+double lateral_distance(const std::vector<Vec3>& path, const Vec3& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i + 1 < path.size(); ++i) {
+    const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>(), q = p.head<2>();
+    const Eigen::Vector2d d = b - a;
+    const double t = d.squaredNorm() > 0 ? std::clamp((q - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
+    best = std::min(best, (a + t * d - q).norm());
+  }
+  return best;
+}
+
+// Task score (DESIGN section 7): how much of the target path the incision covers within the
+// tolerance, how far it strays, and whether its depth is in the accepted range.
+json task_score(const Task& task, const std::vector<Vec3>& cuts, double surface_z) {
+  json j;
+  double length = 0;
+  for (size_t i = 0; i + 1 < task.path.size(); ++i) length += (task.path[i + 1] - task.path[i]).head<2>().norm();
+  // Coverage: path stations every tolerance/4 with a cut point within the tolerance.
+  const double step = task.tolerance / 4;
+  std::size_t stations = 0, covered = 0;
+  for (size_t i = 0; i + 1 < task.path.size(); ++i) {
+    const Vec3 a = task.path[i], b = task.path[i + 1];
+    const int n = std::max(1, static_cast<int>(std::ceil((b - a).head<2>().norm() / step)));
+    for (int k = 0; k < n; ++k) {
+      const Vec3 p = a + (b - a) * (static_cast<double>(k) / n);
+      ++stations;
+      for (const Vec3& c : cuts)
+        if ((c - p).head<2>().norm() <= task.tolerance) {
+          ++covered;
+          break;
+        }
+    }
+  }
+  double max_dev = 0, sum_dev = 0, max_depth = 0;
+  std::size_t outside = 0;
+  for (const Vec3& c : cuts) {
+    const double d = lateral_distance(task.path, c);
+    max_dev = std::max(max_dev, d);
+    sum_dev += d;
+    outside += d > task.tolerance ? 1 : 0;
+    max_depth = std::max(max_depth, surface_z - c.z());
+  }
+  const double coverage = stations ? static_cast<double>(covered) / static_cast<double>(stations) : 0.0;
+  const bool depth_ok = !cuts.empty() && max_depth >= task.depth_min && max_depth <= task.depth_max;
+  const double mean_dev = cuts.empty() ? 0.0 : sum_dev / static_cast<double>(cuts.size());
+  // 100 for a cut that covers the whole path, stays on it and reaches the right depth.
+  const double score = 100.0 * coverage * std::max(0.0, 1.0 - mean_dev / task.tolerance) * (depth_ok ? 1.0 : 0.5);
+  j["path_length"] = length;
+  j["tolerance"] = task.tolerance;
+  j["coverage"] = coverage;
+  j["cut_points"] = cuts.size();
+  j["cut_points_outside_tolerance"] = outside;
+  j["lateral_deviation"] = {{"mean", mean_dev}, {"max", max_dev}};
+  j["depth"] = {{"max", max_depth}, {"min_accepted", task.depth_min}, {"max_accepted", task.depth_max}, {"ok", depth_ok}};
+  j["score"] = score;
+  return j;
+}
+
+// Cut state as a number for VTK cell data: 10 * class + digit, class in the order of the labels'
+// letters O A B C D E G H I J K (0..10), digit the label's digit.
+int cut_state_code(const std::string& label) {
+  static const std::string letters = "OABCDEGHIJK";
+  const auto c = letters.find(label[0]);
+  return static_cast<int>(c == std::string::npos ? 99 : c) * 10 + (label[1] - '0');
+}
+
+void write_mesh_vtu(const Simulation& sim, const std::filesystem::path& path) {
+  const TetMesh& m = sim.mesh();
+  const auto comps = connected_components(m);
+  VtuData data;
+  VtuIntCellArray component{"component", std::vector<std::int64_t>(m.tet_capacity(), -1)};
+  VtuIntCellArray parent{"parent", std::vector<std::int64_t>(m.tet_capacity(), -1)};
+  VtuIntCellArray state{"cut_state", std::vector<std::int64_t>(m.tet_capacity(), 0)};
+  for (const TetId t : m.tets()) {
+    component.values[t.index] = comps.of_tet[t.index];
+    parent.values[t.index] = m.parent(t);
+    state.values[t.index] = cut_state_code(sim.cutter().state_label_of(sim.cutter().coarse_of(t)));
+  }
+  data.cell_ints = {std::move(component), std::move(parent), std::move(state)};
+  VtuVectorPointArray rest{"rest_position", m.rest_positions()};
+  VtuVectorPointArray displacement{"displacement", std::vector<Vec3>(m.node_capacity(), Vec3::Zero())};
+  for (const NodeId n : m.nodes()) displacement.values[n.index] = m.position(n) - m.rest(n);
+  data.point_vectors = {std::move(rest), std::move(displacement)};
+  write_vtu(m, path.string(), data);
+}
+
+}  // namespace
+
+json deterministic_part(const json& report) {
+  json j = report;
+  j.erase("timings");
+  return j;
+}
+
+ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path, const ReplayOptions& options) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  std::vector<ToolSample> log = read_pose_log(log_path.string());
+  if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
+
+  Simulation sim(scenario);
+  const MeshSummary initial = summarize(sim.mesh());
+  const double surface_z = initial.box_max.z();
+
+  // The spine: mock device -> haptic loop -> queue -> simulation, on the virtual clock.
+  MockDevice device(log);
+  ToolQueue queue(static_cast<std::size_t>(scenario.device.queue_capacity));
+  ForceChannel forces;
+  HapticLoopConfig config;
+  config.rate = scenario.device.rate;
+  config.realtime_priority = false;
+  HapticLoop loop(device, queue, forces, config);
+
+  const double duration = log.back().t - log.front().t;
+  const double visual_rate = scenario.simulation.visual_rate;
+  const auto frames = static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
+  std::size_t cycles = 0;
+  std::vector<double> frame_seconds;
+  ToolSample sample;
+  for (std::size_t k = 1; k <= frames; ++k) {
+    const auto frame_start = std::chrono::steady_clock::now();
+    // Haptic cycles up to the end of frame k: t < k / visual_rate.
+    const auto target = static_cast<std::size_t>(std::ceil(static_cast<double>(k) * config.rate / visual_rate));
+    while (cycles < target) {
+      cycles += loop.run_cycles(target - cycles);
+      while (queue.pop(sample)) sim.on_sample(sample);  // a full queue only pauses the producer
+    }
+    sim.end_frame(static_cast<double>(k) / visual_rate, forces);
+    frame_seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+    if (options.progress) options.progress(static_cast<double>(k) / static_cast<double>(frames));
+  }
+
+  const ValidationReport check = validate(sim.mesh(), {.reference_volume = sim.initial_volume()});
+  const CutEngine& cutter = sim.cutter();
+  const CutTotals& totals = cutter.totals();
+  const HapticStats hs = loop.stats();
+
+  json report;
+  report["format"] = "scalpelsim-report 1";
+  report["version"] = version();
+  report["inputs"] = {{"scenario", scenario.file.string()},
+                      {"scenario_name", scenario.name},
+                      {"log", log_path.string()},
+                      {"log_samples", log.size()},
+                      {"log_duration", duration}};
+  report["replay"] = {{"haptic_rate", config.rate},
+                      {"visual_rate", visual_rate},
+                      {"frames", frames},
+                      {"haptic_cycles", hs.cycles},
+                      {"samples", sim.samples()},
+                      {"merged_samples", hs.merged_samples},
+                      {"device_not_ok_cycles", hs.device_not_ok}};
+  report["mesh"] = {{"initial", mesh_json(initial)}, {"final", mesh_json(summarize(sim.mesh()))}};
+
+  json transitions = json::object();
+  for (const auto& [name, count] : totals.transitions) transitions[name] = count;
+  const auto sizes = cutter.subdivision_sizes();
+  json histogram = json::object();
+  std::map<std::size_t, std::size_t> by_size;
+  double mean_size = 0;
+  for (const auto s : sizes) {
+    ++by_size[s];
+    mean_size += static_cast<double>(s) / static_cast<double>(sizes.size());
+  }
+  for (const auto& [s, n] : by_size) histogram[std::to_string(s)] = n;
+  report["cutting"] = {{"edges_cut", totals.edges_cut},
+                       {"backward_crossings", totals.backward_crossings},
+                       {"recrossed_edges", totals.recrossed_edges},
+                       {"face_pierces", totals.face_pierces},
+                       {"tetrahedra_created", totals.tets_created},
+                       {"tetrahedra_removed", totals.tets_removed},
+                       {"nodes_created", totals.nodes_created},
+                       {"coarse_tetrahedra_cut", totals.coarse_tets_cut},
+                       {"tetrahedra_per_cut_tetrahedron", {{"mean", mean_size}, {"histogram", histogram}}},
+                       {"transitions", transitions},
+                       {"cut_surface_area", cutter.cut_surface_area()}};
+  json violations = json::array();
+  for (const auto& v : check.violations) violations.push_back(v.what);
+  report["invariants"] = {{"oriented", check.passed[1]},
+                          {"conforming", check.passed[2]},
+                          {"watertight", check.passed[3]},
+                          {"volume", check.passed[4]},
+#ifdef SCALPEL_VALIDATE
+                          {"checked_after_every_step", true},
+#else
+                          {"checked_after_every_step", false},
+#endif
+                          {"violations", violations}};
+  if (scenario.task) report["task"] = task_score(*scenario.task, cutter.edge_cut_points(), surface_z);
+  report["timings"] = {{"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
+                       {"frame_ms", percentiles(frame_seconds, 1e3)},
+                       {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
+
+  std::filesystem::create_directories(options.out_dir);
+  {
+    std::ofstream out(options.out_dir / "report.json");
+    out << report.dump(2) << '\n';
+    if (!out) throw std::runtime_error("cannot write " + (options.out_dir / "report.json").string());
+  }
+  write_mesh_vtu(sim, options.out_dir / "mesh.vtu");
+  return {report, check.ok()};
+}
+
+}  // namespace scalpel

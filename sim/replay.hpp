@@ -1,0 +1,36 @@
+// Headless replay of a recorded pose log (DESIGN sections 1 and 7): the same path a real device
+// takes. A MockDevice replays the log inside the HapticLoop, which pushes ToolSamples into the
+// lock-free queue; the simulation drains it once per visual frame. Both run on a virtual clock in
+// one thread, rate/visual_rate haptic cycles then one frame, so a replay is deterministic and runs
+// as fast as the machine allows.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "sim/scenario.hpp"
+
+namespace scalpel {
+
+struct ReplayOptions {
+  std::filesystem::path out_dir;  // report.json and mesh.vtu are written here (created if missing)
+  // Called after every frame with the fraction done, for a progress bar.
+  std::function<void(double)> progress;
+};
+
+struct ReplayResult {
+  nlohmann::ordered_json report;  // also written as out_dir/report.json
+  bool invariants_ok = false;
+};
+
+// Throws InputError for a bad scenario or log.
+[[nodiscard]] ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
+                                  const ReplayOptions& options);
+
+// The report without its wall-clock timings: what must be identical between two replays.
+[[nodiscard]] nlohmann::ordered_json deterministic_part(const nlohmann::ordered_json& report);
+
+}  // namespace scalpel

@@ -1,0 +1,70 @@
+// The simulation of one scenario (DESIGN section 1): the sim thread's side of the spine. It takes
+// tool samples drained from the haptic queue, sweeps the blade through the cutter at every sample
+// (DESIGN section 2: every 1 kHz sample is a sweep step), and at the end of each visual frame steps
+// the tissue and publishes the force model for the haptic loop.
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "cutting/cut_engine.hpp"
+#include "cutting/mesh.hpp"
+#include "cutting/mesh_io.hpp"
+#include "devices/tool_sample.hpp"
+#include "haptics/force_model.hpp"
+#include "sim/scenario.hpp"
+
+namespace scalpel {
+
+// The scenario's mesh: generated, or read from its file (region names from the file's tags).
+struct ScenarioMesh {
+  TetMesh mesh;
+  RegionIds regions;  // region name -> id
+};
+[[nodiscard]] ScenarioMesh load_scenario_mesh(const Scenario& scenario);
+
+struct SampleTiming {
+  double cut_seconds = 0.0;  // wall-clock time of the cut step of one sample
+};
+
+class Simulation {
+ public:
+  explicit Simulation(const Scenario& scenario);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // The blade in world space for a sample in device space (the scenario's mapping, then the tool
+  // frame's blade points).
+  [[nodiscard]] BladePose blade(const ToolSample& device_sample) const;
+
+  // One tool sample from the queue: a sweep step of the cutter.
+  void on_sample(const ToolSample& device_sample);
+  // The end of a visual frame at time t [s]: refits the collision structure and publishes the
+  // force model.
+  void end_frame(double t, ForceChannel& forces);
+
+  [[nodiscard]] const Scenario& scenario() const { return scenario_; }
+  [[nodiscard]] TetMesh& mesh() { return mesh_; }
+  [[nodiscard]] const TetMesh& mesh() const { return mesh_; }
+  [[nodiscard]] const CutEngine& cutter() const { return *cutter_; }
+  [[nodiscard]] double initial_volume() const { return initial_volume_; }
+  [[nodiscard]] std::size_t samples() const { return samples_; }
+  [[nodiscard]] const std::vector<double>& cut_step_seconds() const { return cut_seconds_; }
+  [[nodiscard]] const ToolSample& last_sample() const { return last_; }
+
+ private:
+  Scenario scenario_;
+  TetMesh mesh_;
+  RegionIds regions_;
+  double initial_volume_ = 0.0;
+  std::unique_ptr<CutEngine> cutter_;
+  std::size_t samples_ = 0;
+  std::size_t edges_cut_in_frame_ = 0;
+  ToolSample last_;
+  std::vector<double> cut_seconds_;
+  std::uint64_t force_sequence_ = 0;
+};
+
+}  // namespace scalpel
