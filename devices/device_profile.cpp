@@ -128,8 +128,10 @@ ReportLayout parse_layout(const Ctx& c, const YAML::Node& n, const std::string& 
     if (f["deadband"]) rf.deadband = c.number(f["deadband"], fw + ".deadband");
     if (rf.deadband < 0.0) c.fail(f["deadband"], fw + ".deadband", "must be >= 0");
     if (f["shift"]) rf.shift = static_cast<int>(c.integer(f["shift"], fw + ".shift", 0, 31));
-    if (rf.axis == Axis::Buttons && (rf.type == FieldType::F32LE || f["scale"]))
-      c.fail(f, fw, "buttons are an unsigned integer field without scale");
+    const bool unsigned_type = rf.type == FieldType::U8 || rf.type == FieldType::U16LE ||
+                               rf.type == FieldType::U16BE || rf.type == FieldType::U32LE;
+    if (rf.axis == Axis::Buttons && (!unsigned_type || f["scale"] || f["deadband"]))
+      c.fail(f, fw, "buttons are an unsigned integer field without scale or dead band");
     if (rf.offset + field_size(rf.type) > r.length)
       c.fail(f["offset"], fw + ".offset", "field ends past the report length " + std::to_string(r.length));
     if (r.id && rf.offset == 0) c.fail(f["offset"], fw + ".offset", "byte 0 is the report id");

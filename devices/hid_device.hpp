@@ -21,8 +21,8 @@ namespace scalpel {
 
 // Which of the devices a profile matches to open: empty fields match any.
 struct DeviceSelector {
-  std::string serial;  // USB serial number string
-  std::string path;    // platform path (hidapi) or "bus:address" (libusb)
+  std::string serial{};  // USB serial number string
+  std::string path{};    // platform path (hidapi) or "bus:address" (libusb)
 };
 
 // hidapi, non-blocking reads. Opens the first device matching the profile and the selector.

@@ -150,6 +150,11 @@ TEST_CASE("profile errors name the file, line and key") {
   std::string no_motion = t;
   no_motion.replace(no_motion.find("motion: absolute\n"), 17, "");
   CHECK(error_of(no_motion).find("motion: missing") != std::string::npos);
+  std::string signed_buttons = t;
+  signed_buttons.replace(signed_buttons.find("{axis: z, offset: 9, type: f32le}"), 33,
+                         "{axis: buttons, offset: 9, type: i8}");
+  CHECK(error_of(signed_buttons).find("bad.yaml:12:9: input_reports[0].fields[2]: buttons are an unsigned") ==
+        0);
   CHECK(error_of("name: [unclosed").find("bad.yaml:") == 0);
   CHECK_THROWS_AS((void)load_device_profile("/nonexistent/profile.yaml"), InputError);
 }
