@@ -9,10 +9,6 @@ pkg_check_modules(HIDAPI REQUIRED IMPORTED_TARGET hidapi-hidraw)
 pkg_check_modules(LIBUSB REQUIRED IMPORTED_TARGET libusb-1.0)
 pkg_check_modules(GMP REQUIRED IMPORTED_TARGET gmp)
 
-# readerwriterqueue is header-only and ships no CMake package.
-find_path(READERWRITERQUEUE_INCLUDE_DIR readerwriterqueue/readerwriterqueue.h REQUIRED)
-add_library(scalpel_readerwriterqueue INTERFACE)
-target_include_directories(scalpel_readerwriterqueue SYSTEM INTERFACE ${READERWRITERQUEUE_INCLUDE_DIR})
 
 if(SCALPEL_BUILD_GUI)
   pkg_check_modules(GLFW REQUIRED IMPORTED_TARGET glfw3)

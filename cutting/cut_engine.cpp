@@ -760,10 +760,10 @@ NodeId CutEngine::add_node(const NodeParents& parents) {
   return n;
 }
 
-std::vector<Vec3> CutEngine::edge_cut_points() const {
+std::vector<Vec3> CutEngine::cut_points() const {
   std::vector<Vec3> out;
   for (const CutNode& n : cut_nodes_)
-    if (n.kind == CutNode::Kind::Edge) out.push_back(mesh_.rest(n.copies[0]));
+    if (n.kind != CutNode::Kind::Mid) out.push_back(mesh_.rest(n.copies[0]));
   return out;
 }
 

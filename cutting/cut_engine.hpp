@@ -122,8 +122,9 @@ class CutEngine {
   // What the last step changed; moved nodes are mid nodes that slid with the blade, whose
   // elements need their rest data refreshed.
   [[nodiscard]] const CutChanges& changes() const { return changes_; }
-  // Rest positions of the cut points on edges, in the order they were cut (for task scoring).
-  [[nodiscard]] std::vector<Vec3> edge_cut_points() const;
+  // Rest positions of the points the cut has reached: edge cut points and entry nodes (the tip's
+  // path), in the order they were made (for task scoring).
+  [[nodiscard]] std::vector<Vec3> cut_points() const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
 

@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config clang-format
-  libeigen3-dev libyaml-cpp-dev libcli11-dev libreaderwriterqueue-dev nlohmann-json3-dev libgmp-dev
+  libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libgmp-dev
   libhidapi-dev libusb-1.0-0-dev libglfw3-dev libgl-dev libimgui-dev
   doctest-dev libbenchmark-dev
   gmsh tetgen python3-meshio

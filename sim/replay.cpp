@@ -233,7 +233,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                           {"checked_after_every_step", false},
 #endif
                           {"violations", violations}};
-  if (scenario.task) report["task"] = task_score(*scenario.task, cutter.edge_cut_points(), surface_z);
+  if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);
   report["timings"] = {{"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
                        {"frame_ms", percentiles(frame_seconds, 1e3)},
                        {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
