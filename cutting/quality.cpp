@@ -11,8 +11,8 @@ namespace scalpel {
 
 double tet_quality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   const double v = (b - a).dot((c - a).cross(d - a)) / 6.0;
-  const double l2 = ((b - a).squaredNorm() + (c - a).squaredNorm() + (d - a).squaredNorm() + (c - b).squaredNorm() +
-                     (d - b).squaredNorm() + (d - c).squaredNorm()) /
+  const double l2 = ((b - a).squaredNorm() + (c - a).squaredNorm() + (d - a).squaredNorm() +
+                     (c - b).squaredNorm() + (d - b).squaredNorm() + (d - c).squaredNorm()) /
                     6.0;
   if (l2 <= 0) return 0.0;
   return 6.0 * std::sqrt(2.0) * v / std::pow(l2, 1.5);

@@ -36,17 +36,19 @@ fs::path default_scenario() {
 void print_progress(double fraction) {
   constexpr int kWidth = 40;
   const int filled = static_cast<int>(fraction * kWidth);
-  std::fprintf(stderr, "\r[%.*s%*s] %3d%%", filled, "########################################", kWidth - filled, "",
-               static_cast<int>(fraction * 100));
+  std::fprintf(stderr, "\r[%.*s%*s] %3d%%", filled, "########################################",
+               kWidth - filled, "", static_cast<int>(fraction * 100));
   if (fraction >= 1.0) std::fprintf(stderr, "\n");
 }
 
-int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out, bool no_progress) {
+int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out,
+               bool no_progress) {
   const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
   const Scenario scenario = load_scenario(scenario_path);
   fs::path log_path = log_arg;
   if (log_path.empty()) {
-    if (!scenario.log) throw InputError(scenario_path.string(), 0, 0, "log", "no pose log given and the scenario names none");
+    if (!scenario.log)
+      throw InputError(scenario_path.string(), 0, 0, "log", "no pose log given and the scenario names none");
     log_path = *scenario.log;
   }
   ReplayOptions options;
@@ -56,15 +58,15 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   const auto& c = r.report["cutting"];
   std::cout << "replayed " << r.report["replay"]["samples"] << " samples of " << log_path.string() << " on "
             << scenario_path.string() << "\n"
-            << "  edges cut " << c["edges_cut"] << ", tetrahedra " << r.report["mesh"]["initial"]["tetrahedra"] << " -> "
-            << r.report["mesh"]["final"]["tetrahedra"] << ", cut surface " << c["cut_surface_area"].get<double>() * 1e6
-            << " mm^2\n";
+            << "  edges cut " << c["edges_cut"] << ", tetrahedra "
+            << r.report["mesh"]["initial"]["tetrahedra"] << " -> " << r.report["mesh"]["final"]["tetrahedra"]
+            << ", cut surface " << c["cut_surface_area"].get<double>() * 1e6 << " mm^2\n";
   if (r.report.contains("task"))
     std::cout << "  task score " << r.report["task"]["score"].get<double>() << " (coverage "
               << r.report["task"]["coverage"].get<double>() * 100 << " %)\n";
   std::cout << "  invariants " << (r.invariants_ok ? "hold" : "BROKEN") << "\n"
-            << "  wrote " << (fs::path(out) / "report.json").string() << " and " << (fs::path(out) / "mesh.vtu").string()
-            << "\n";
+            << "  wrote " << (fs::path(out) / "report.json").string() << " and "
+            << (fs::path(out) / "mesh.vtu").string() << "\n";
   return r.invariants_ok ? 0 : 1;
 }
 
@@ -75,8 +77,8 @@ int cmd_validate(const std::string& path) {
   (void)select_fixed_nodes(scenario, m.mesh);
   const auto report = validate(m.mesh, {.reference_volume = m.mesh.total_rest_volume()});
   const MeshSummary s = summarize(m.mesh);
-  std::cout << path << ": scenario '" << scenario.name << "', " << s.tets << " tetrahedra, " << s.nodes << " nodes, "
-            << s.regions << " regions\n";
+  std::cout << path << ": scenario '" << scenario.name << "', " << s.tets << " tetrahedra, " << s.nodes
+            << " nodes, " << s.regions << " regions\n";
   if (!report.ok()) {
     std::cout << report.summary();
     return 1;
@@ -103,7 +105,8 @@ int cmd_inspect(const std::string& path, bool as_json) {
     j["rest_volume"] = s.rest_volume;
     j["bounding_box"] = {{"min", {s.box_min.x(), s.box_min.y(), s.box_min.z()}},
                          {"max", {s.box_max.x(), s.box_max.y(), s.box_max.z()}}};
-    j["quality"] = {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}};
+    j["quality"] = {
+        {"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}};
     j["edge_length"] = {{"min", s.edge_min}, {"max", s.edge_max}};
     j["reoriented_tetrahedra"] = info.reoriented_tets;
     j["invariants"] = {{"oriented", report.passed[1]},
@@ -113,10 +116,12 @@ int cmd_inspect(const std::string& path, bool as_json) {
     std::cout << j.dump(2) << "\n";
   } else {
     std::cout << path << "\n"
-              << "  nodes " << s.nodes << ", tetrahedra " << s.tets << ", boundary faces " << s.boundary_faces << "\n"
-              << "  components " << s.components << ", regions " << s.regions << ", volume " << s.rest_volume << " m^3\n"
-              << "  quality (6 sqrt2 V / l_rms^3) min " << s.quality_min << ", mean " << s.quality_mean << ", max "
-              << s.quality_max << ", slivers (< 0.1) " << s.slivers << "\n"
+              << "  nodes " << s.nodes << ", tetrahedra " << s.tets << ", boundary faces " << s.boundary_faces
+              << "\n"
+              << "  components " << s.components << ", regions " << s.regions << ", volume " << s.rest_volume
+              << " m^3\n"
+              << "  quality (6 sqrt2 V / l_rms^3) min " << s.quality_min << ", mean " << s.quality_mean
+              << ", max " << s.quality_max << ", slivers (< 0.1) " << s.slivers << "\n"
               << "  edge length min " << s.edge_min << " m, max " << s.edge_max << " m\n"
               << "  invariants: " << (report.ok() ? "all hold" : "BROKEN") << "\n";
     if (!report.ok()) std::cout << report.summary();
@@ -141,8 +146,10 @@ int main(int argc, char** argv) {
   std::string scenario, log, out = "out", mesh_path, make_log_out;
   bool json = false, no_progress = false;
 
-  auto* replay_cmd = app.add_subcommand("replay", "Replay a pose log headless; writes report.json and mesh.vtu");
-  replay_cmd->add_option("scenario", scenario, "Scenario YAML (default: config/scenarios/skin_incision.yaml)");
+  auto* replay_cmd =
+      app.add_subcommand("replay", "Replay a pose log headless; writes report.json and mesh.vtu");
+  replay_cmd->add_option("scenario", scenario,
+                         "Scenario YAML (default: config/scenarios/skin_incision.yaml)");
   replay_cmd->add_option("log", log, "Pose log CSV (default: the scenario's `log`)");
   replay_cmd->add_option("--out", out, "Output folder")->capture_default_str();
   replay_cmd->add_flag("--no-progress", no_progress, "No progress bar on the terminal");
@@ -150,11 +157,13 @@ int main(int argc, char** argv) {
   auto* validate_cmd = app.add_subcommand("validate", "Check a scenario and its mesh without running it");
   validate_cmd->add_option("scenario", scenario, "Scenario YAML")->required();
 
-  auto* inspect_cmd = app.add_subcommand("inspect", "Counts, volume, components, quality and invariants of a mesh file");
+  auto* inspect_cmd =
+      app.add_subcommand("inspect", "Counts, volume, components, quality and invariants of a mesh file");
   inspect_cmd->add_option("mesh", mesh_path, "Mesh file: .msh (2.2/4.1 ASCII), .node/.ele, .vtu")->required();
   inspect_cmd->add_flag("--json", json, "Print JSON");
 
-  auto* make_log_cmd = app.add_subcommand("make-log", "Generate the pose log of a scenario's task (the bundled log)");
+  auto* make_log_cmd =
+      app.add_subcommand("make-log", "Generate the pose log of a scenario's task (the bundled log)");
   make_log_cmd->add_option("scenario", scenario, "Scenario YAML with a task")->required();
   make_log_cmd->add_option("--out", make_log_out, "Pose log to write")->required();
 

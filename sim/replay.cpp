@@ -27,7 +27,9 @@ json percentiles(std::vector<double> v, double scale) {
   json j;
   if (v.empty()) return j;
   std::sort(v.begin(), v.end());
-  auto at = [&](double q) { return v[static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1)))] * scale; };
+  auto at = [&](double q) {
+    return v[static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1)))] * scale;
+  };
   j["p50"] = at(0.50);
   j["p95"] = at(0.95);
   j["p99"] = at(0.99);
@@ -36,13 +38,15 @@ json percentiles(std::vector<double> v, double scale) {
 }
 
 json mesh_json(const MeshSummary& s) {
-  return {{"nodes", s.nodes},
-          {"tetrahedra", s.tets},
-          {"boundary_faces", s.boundary_faces},
-          {"components", s.components},
-          {"regions", s.regions},
-          {"rest_volume", s.rest_volume},
-          {"quality", {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}}}};
+  return {
+      {"nodes", s.nodes},
+      {"tetrahedra", s.tets},
+      {"boundary_faces", s.boundary_faces},
+      {"components", s.components},
+      {"regions", s.regions},
+      {"rest_volume", s.rest_volume},
+      {"quality",
+       {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}}}};
 }
 
 // Distance from p to the polyline in the xy plane [m].
@@ -62,7 +66,8 @@ double lateral_distance(const std::vector<Vec3>& path, const Vec3& p) {
 json task_score(const Task& task, const std::vector<Vec3>& cuts, double surface_z) {
   json j;
   double length = 0;
-  for (size_t i = 0; i + 1 < task.path.size(); ++i) length += (task.path[i + 1] - task.path[i]).head<2>().norm();
+  for (size_t i = 0; i + 1 < task.path.size(); ++i)
+    length += (task.path[i + 1] - task.path[i]).head<2>().norm();
   // Coverage: path stations every tolerance/4 with a cut point within the tolerance.
   const double step = task.tolerance / 4;
   std::size_t stations = 0, covered = 0;
@@ -92,14 +97,18 @@ json task_score(const Task& task, const std::vector<Vec3>& cuts, double surface_
   const bool depth_ok = !cuts.empty() && max_depth >= task.depth_min && max_depth <= task.depth_max;
   const double mean_dev = cuts.empty() ? 0.0 : sum_dev / static_cast<double>(cuts.size());
   // 100 for a cut that covers the whole path, stays on it and reaches the right depth.
-  const double score = 100.0 * coverage * std::max(0.0, 1.0 - mean_dev / task.tolerance) * (depth_ok ? 1.0 : 0.5);
+  const double score =
+      100.0 * coverage * std::max(0.0, 1.0 - mean_dev / task.tolerance) * (depth_ok ? 1.0 : 0.5);
   j["path_length"] = length;
   j["tolerance"] = task.tolerance;
   j["coverage"] = coverage;
   j["cut_points"] = cuts.size();
   j["cut_points_outside_tolerance"] = outside;
   j["lateral_deviation"] = {{"mean", mean_dev}, {"max", max_dev}};
-  j["depth"] = {{"max", max_depth}, {"min_accepted", task.depth_min}, {"max_accepted", task.depth_max}, {"ok", depth_ok}};
+  j["depth"] = {{"max", max_depth},
+                {"min_accepted", task.depth_min},
+                {"max_accepted", task.depth_max},
+                {"ok", depth_ok}};
   j["score"] = score;
   return j;
 }
@@ -140,7 +149,8 @@ json deterministic_part(const json& report) {
   return j;
 }
 
-ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path, const ReplayOptions& options) {
+ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
+                    const ReplayOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
   std::vector<ToolSample> log = read_pose_log(log_path.string());
   if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
@@ -167,13 +177,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   for (std::size_t k = 1; k <= frames; ++k) {
     const auto frame_start = std::chrono::steady_clock::now();
     // Haptic cycles up to the end of frame k: t < k / visual_rate.
-    const auto target = static_cast<std::size_t>(std::ceil(static_cast<double>(k) * config.rate / visual_rate));
+    const auto target =
+        static_cast<std::size_t>(std::ceil(static_cast<double>(k) * config.rate / visual_rate));
     while (cycles < target) {
       cycles += loop.run_cycles(target - cycles);
       while (queue.pop(sample)) sim.on_sample(sample);  // a full queue only pauses the producer
     }
     sim.end_frame(static_cast<double>(k) / visual_rate, forces);
-    frame_seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+    frame_seconds.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
     if (options.progress) options.progress(static_cast<double>(k) / static_cast<double>(frames));
   }
 
@@ -223,10 +235,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                        {"cut_surface_area", cutter.cut_surface_area()}};
   json violations = json::array();
   for (const auto& v : check.violations) violations.push_back(v.what);
-  report["invariants"] = {{"oriented", check.passed[1]},
-                          {"conforming", check.passed[2]},
-                          {"watertight", check.passed[3]},
-                          {"volume", check.passed[4]},
+  report["invariants"] = {{"oriented", check.passed[1]},      {"conforming", check.passed[2]},
+                          {"watertight", check.passed[3]},    {"volume", check.passed[4]},
 #ifdef SCALPEL_VALIDATE
                           {"checked_after_every_step", true},
 #else
@@ -234,9 +244,10 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
 #endif
                           {"violations", violations}};
   if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);
-  report["timings"] = {{"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
-                       {"frame_ms", percentiles(frame_seconds, 1e3)},
-                       {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
+  report["timings"] = {
+      {"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
+      {"frame_ms", percentiles(frame_seconds, 1e3)},
+      {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
 
   std::filesystem::create_directories(options.out_dir);
   {

@@ -2,7 +2,6 @@
 
 #include <chrono>
 
-
 namespace scalpel {
 
 ScenarioMesh load_scenario_mesh(const Scenario& scenario) {
@@ -35,8 +34,8 @@ BladePose Simulation::blade(const ToolSample& s) const {
   const DeviceMapping& map = scenario_.device.mapping;
   const Vec3 position = map.rotation * (map.scale * s.position) + map.offset;
   const Eigen::Quaterniond orientation = map.rotation * s.orientation;
-  return {position + orientation * scenario_.tool.blade_back, position + orientation * scenario_.tool.blade_tip,
-          Vec3::Zero()};
+  return {position + orientation * scenario_.tool.blade_back,
+          position + orientation * scenario_.tool.blade_tip, Vec3::Zero()};
 }
 
 void Simulation::on_sample(const ToolSample& s) {

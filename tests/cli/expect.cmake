@@ -1,0 +1,15 @@
+# Runs one scalpelsim command and checks its exit code and output.
+#   -DCOMMAND="prog;arg;..."  -DEXPECT_EXIT=0|nonzero  -DEXPECT_OUTPUT=<regex>
+execute_process(COMMAND ${COMMAND} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+set(all "${out}${err}")
+if(EXPECT_EXIT STREQUAL "nonzero")
+  if(code EQUAL 0)
+    message(FATAL_ERROR "expected a failure, got exit 0:\n${all}")
+  endif()
+elseif(NOT code EQUAL EXPECT_EXIT)
+  message(FATAL_ERROR "expected exit ${EXPECT_EXIT}, got ${code}:\n${all}")
+endif()
+if(DEFINED EXPECT_OUTPUT AND NOT all MATCHES "${EXPECT_OUTPUT}")
+  message(FATAL_ERROR "output does not match '${EXPECT_OUTPUT}':\n${all}")
+endif()
+message(STATUS "exit ${code}: ${all}")

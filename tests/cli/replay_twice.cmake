@@ -1,0 +1,28 @@
+# Replays the bundled default scenario and log twice and requires identical outputs: mesh.vtu byte
+# for byte, report.json without its wall-clock timings.
+#   -DSCALPELSIM=<program>  -DOUT=<folder>
+foreach(run a b)
+  execute_process(COMMAND ${SCALPELSIM} replay --no-progress --out ${OUT}/${run} RESULT_VARIABLE code
+                  OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT code EQUAL 0)
+    message(FATAL_ERROR "replay ${run} failed (${code}):\n${out}${err}")
+  endif()
+endforeach()
+execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${OUT}/a/mesh.vtu ${OUT}/b/mesh.vtu RESULT_VARIABLE differ)
+if(differ)
+  message(FATAL_ERROR "mesh.vtu differs between two replays")
+endif()
+foreach(run a b)
+  file(READ ${OUT}/${run}/report.json report)
+  string(JSON report REMOVE "${report}" timings)
+  set(report_${run} "${report}")
+endforeach()
+if(NOT report_a STREQUAL report_b)
+  message(FATAL_ERROR "report.json (less timings) differs between two replays")
+endif()
+string(JSON edges GET "${report_a}" cutting edges_cut)
+string(JSON ok GET "${report_a}" invariants volume)
+if(edges LESS 1 OR NOT ok)
+  message(FATAL_ERROR "the default replay cut nothing or broke an invariant")
+endif()
+message(STATUS "two replays identical; ${edges} edges cut")
