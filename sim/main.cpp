@@ -1,6 +1,8 @@
 // scalpelsim: the command-line program. Every command prints its own --help.
 #include <unistd.h>
 
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -12,6 +14,11 @@
 #include "cutting/mesh_io.hpp"
 #include "cutting/quality.hpp"
 #include "cutting/validate.hpp"
+#include "devices/device_profile.hpp"
+#include "devices/hid_device.hpp"
+#include "devices/mock_device.hpp"
+#include "devices/pose_log.hpp"
+#include "haptics/recorder.hpp"
 #include "sim/log_generator.hpp"
 #include "sim/replay.hpp"
 #include "sim/scenario.hpp"
@@ -23,14 +30,22 @@ using namespace scalpel;
 
 namespace {
 
-// The bundled default scenario, found next to the program's source tree or the working directory.
-fs::path default_scenario() {
-  const fs::path relative = "config/scenarios/skin_incision.yaml";
+// A bundled file: looked up from the working directory upwards, then in the source tree.
+fs::path bundled(const fs::path& relative) {
   for (fs::path dir = fs::current_path(); !dir.empty(); dir = dir.parent_path()) {
     if (fs::exists(dir / relative)) return dir / relative;
     if (dir == dir.parent_path()) break;
   }
   return fs::path(SCALPEL_SOURCE_DIR) / relative;
+}
+
+fs::path default_scenario() {
+  return bundled("config/scenarios/skin_incision.yaml");
+}
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_interrupt(int) {
+  g_stop.store(true);
 }
 
 void print_progress(double fraction) {
@@ -136,6 +151,68 @@ int cmd_make_log(const std::string& scenario_path, const std::string& out) {
   return 0;
 }
 
+int cmd_devices(const std::string& profiles_dir, bool all) {
+  const auto profiles = load_device_profiles(profiles_dir);
+  const auto found = enumerate_devices(profiles, all);
+  if (found.empty()) std::cout << "no " << (all ? "" : "matching ") << "devices attached\n";
+  for (const FoundDevice& d : found) {
+    char ids[16];
+    std::snprintf(ids, sizeof ids, "%04x:%04x", d.vendor_id, d.product_id);
+    std::cout << ids << "  " << (d.manufacturer.empty() ? "?" : d.manufacturer) << " "
+              << (d.product.empty() ? "?" : d.product) << "  serial " << (d.serial.empty() ? "-" : d.serial)
+              << "  path " << d.path << "  profile "
+              << (d.profile >= 0 ? profiles[static_cast<size_t>(d.profile)].name : "(none)") << "\n";
+  }
+  return 0;
+}
+
+struct RecordArgs {
+  std::string scenario, device, profiles_dir, serial, path, replay_log, out;
+  double duration = 0.0;
+};
+
+int cmd_record(const RecordArgs& a) {
+  const Scenario scenario = load_scenario(a.scenario);
+  std::unique_ptr<Device> device;
+  std::string device_name = a.device;
+  bool virtual_clock = false;
+  if (a.device == "mock") {
+    if (a.replay_log.empty())
+      throw InputError(a.scenario, 0, 0, "--replay", "the mock device needs --replay LOG");
+    device = std::make_unique<MockDevice>(read_pose_log(a.replay_log));
+    virtual_clock = true;
+  } else {
+    const std::string name = a.device.empty() ? scenario.device.profile : a.device;
+    if (name.empty())
+      throw InputError(a.scenario, 0, 0, "device.profile", "no device profile given (--device)");
+    const fs::path file =
+        fs::path(name).has_extension() ? fs::path(name) : fs::path(a.profiles_dir) / (name + ".yaml");
+    const DeviceProfile profile = load_device_profile(file.string());
+    device = open_device(profile, {a.serial, a.path});
+    device_name = profile.name;
+  }
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%g Hz", scenario.device.rate);
+  PoseLogWriter writer(a.out, {{"device", device_name}, {"scenario", scenario.name}, {"rate", rate}}, true);
+  ForceChannel forces;
+  RecordingOptions options;
+  options.loop.rate = scenario.device.rate;
+  options.virtual_clock = virtual_clock;
+  options.queue_capacity = static_cast<std::size_t>(scenario.device.queue_capacity);
+  options.duration = a.duration;
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  if (!virtual_clock) std::cerr << "recording " << device_name << " to " << a.out << "; Ctrl-C stops\n";
+  const RecordingResult r = record_session(
+      *device, forces, options, [&](const ToolSample& s) { writer.write(s); }, [&] { writer.flush(); },
+      g_stop);
+  if (!r.warning.empty()) std::cerr << "warning: " << r.warning << "\n";
+  std::cout << "recorded " << r.samples << " samples to " << a.out << " (" << r.flushes << " flushes, "
+            << r.device.short_reports + r.device.malformed_reports << " bad reports skipped, "
+            << r.device.rejected_poses << " poses rejected)\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -167,12 +244,35 @@ int main(int argc, char** argv) {
   make_log_cmd->add_option("scenario", scenario, "Scenario YAML with a task")->required();
   make_log_cmd->add_option("--out", make_log_out, "Pose log to write")->required();
 
+  std::string profiles_dir = bundled("config/devices").string();
+  bool all_devices = false;
+  auto* devices_cmd = app.add_subcommand("devices", "List attached HID devices and the profile each matches");
+  devices_cmd->add_option("--profiles", profiles_dir, "Folder of device profiles")->capture_default_str();
+  devices_cmd->add_flag("--all", all_devices, "Also list devices no profile matches");
+
+  RecordArgs rec;
+  rec.profiles_dir = profiles_dir;
+  auto* record_cmd = app.add_subcommand("record", "Record a session from a device to a pose log");
+  record_cmd->add_option("scenario", rec.scenario, "Scenario YAML (rates, queue, device profile)")
+      ->required();
+  record_cmd->add_option(
+      "--device", rec.device,
+      "Device profile name or file (default: the scenario's device.profile); 'mock' replays --replay");
+  record_cmd->add_option("--out", rec.out, "Pose log to write")->required();
+  record_cmd->add_option("--duration", rec.duration, "Seconds to record (default: until Ctrl-C)");
+  record_cmd->add_option("--serial", rec.serial, "Open the device with this serial number");
+  record_cmd->add_option("--path", rec.path, "Open the device at this path");
+  record_cmd->add_option("--replay", rec.replay_log, "With --device mock: the log the mock device replays");
+  record_cmd->add_option("--profiles", rec.profiles_dir, "Folder of device profiles")->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress);
     if (*validate_cmd) return cmd_validate(scenario);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out);
+    if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
+    if (*record_cmd) return cmd_record(rec);
   } catch (const InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;
