@@ -22,6 +22,12 @@ TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sl
   const double l_rms = std::sqrt(sum_sq / 6.0);
   r.quality = 6.0 * std::sqrt(2.0) * vol / (l_rms * l_rms * l_rms);
   r.stiffness_scale = sliver_quality > 0 ? std::min(1.0, r.quality / sliver_quality) : 1.0;
+  // Below kInertQuality the rest gradients (~1/height) amplify the rounding noise of the positions
+  // into O(1) strains: such an element carries mass only.
+  if (r.quality < kInertQuality) {
+    r.stiffness_scale = 0;
+    return r;
+  }
 
   // Prestress: rest shape scaled by 1/lambda0 (DESIGN section 6).
   const double l0 = m.prestress;

@@ -25,7 +25,8 @@
 // Slivers: an element whose rest quality q = 6 sqrt(2) V / l_rms^3 (1 for the regular
 // tetrahedron, -> 0 for slivers) is below q_min has its moduli scaled by q / q_min. A sliver's
 // stiffness grows like 1/q; the scaling bounds it by that of a q_min element of the same size, so
-// a cut cannot make the system arbitrarily ill-conditioned. Mass stays exact.
+// a cut cannot make the system arbitrarily ill-conditioned. Mass stays exact. Below kInertQuality
+// an element carries mass only: its gradients would turn position round-off into strain.
 #pragma once
 
 #include <array>
@@ -42,6 +43,8 @@ using Mat3 = Eigen::Matrix3d;
 using Mat34 = Eigen::Matrix<double, 3, 4>;
 using Vec12 = Eigen::Matrix<double, 12, 1>;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
+
+inline constexpr double kInertQuality = 1e-8;
 
 enum class TissueKind { Corotational, MassSpring };
 
@@ -63,7 +66,7 @@ struct TetRest {
                                     double sliver_quality);
 
 // Rotation of the polar decomposition of F, iterated from q (Müller et al. 2016).
-void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations = 30);
+void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations = 100);
 
 // Per-step state of a co-rotational element: everything the assembly needs.
 struct CorotationalState {
