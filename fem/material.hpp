@@ -1,6 +1,9 @@
 // Linear isotropic material parameters of a tissue region (DESIGN section 6).
 #pragma once
 
+#include <optional>
+#include <string>
+
 namespace scalpel {
 
 struct Material {
@@ -18,5 +21,16 @@ struct Lame {
 };
 
 [[nodiscard]] Lame lame_parameters(const Material& m);
+
+// A bad material value: `field` is the Material member (and scenario key) at fault.
+struct MaterialError {
+  std::string field;    // "young", "poisson", "density", "damping_mass", "damping_stiffness", "prestress"
+  std::string message;  // e.g. "must be positive [Pa], got -5"
+};
+
+// Checks the physical ranges: young > 0, -1 < poisson < 0.5, density > 0, both damping
+// coefficients >= 0, prestress > 0, all finite. Returns the first violation, or nothing.
+// The scenario loader turns the result into an InputError located at the offending key.
+[[nodiscard]] std::optional<MaterialError> validate_material(const Material& m);
 
 }  // namespace scalpel

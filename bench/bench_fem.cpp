@@ -1,0 +1,159 @@
+// Tissue step speed (DESIGN section 6): step time, CG iterations and final relative residual of the
+// co-rotational and mass-spring models on a prestressed three-layer skin slab, and the step right
+// after an incision compared with the steps before it.
+//
+//   ./build/release/bench/bench_fem
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+
+#include "cutting/generators.hpp"
+#include "fem/tissue.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+constexpr double kDt = 1.0 / 60;  // [s] the visual rate of the simulation thread
+
+struct Scene {
+  TetMesh mesh;
+  std::unique_ptr<TissueModel> model;
+};
+
+// A 4 cm x 4 cm slab, 1 cm deep, cells x cells x 6 cubes of 6 tetrahedra.
+std::unique_ptr<Scene> make_scene(int cells, TissueKind kind, double tolerance) {
+  auto s = std::make_unique<Scene>();
+  s->mesh = make_slab({.size_x = 0.04,
+                       .size_y = 0.04,
+                       .cells = {cells, cells},
+                       .layers = {{"epidermis", 0.002, 2}, {"dermis", 0.003, 2}, {"fat", 0.005, 2}}});
+  std::vector<Material> mats(3);
+  mats[0].young = 100e3;
+  mats[1].young = 50e3;
+  mats[2].young = 10e3;
+  for (Material& m : mats) m.prestress = 1.1;
+  s->model = std::make_unique<TissueModel>(
+      s->mesh, mats, TissueSettings{.kind = kind, .tolerance = tolerance, .max_iterations = 200});
+  for (const NodeId n : s->mesh.nodes()) {
+    const Vec3& x = s->mesh.rest(n);
+    if (std::abs(std::abs(x.x()) - 0.02) < 1e-12 || std::abs(std::abs(x.y()) - 0.02) < 1e-12 ||
+        std::abs(x.z() + 0.01) < 1e-12)
+      s->model->set_fixed(n);
+  }
+  for (int k = 0; k < 30; ++k) (void)s->model->step(kDt);  // settle under gravity and prestress
+  return s;
+}
+
+// An incision through the top layer along the node plane nearest x = 0 (|y| < half_length): the
+// nodes on it are duplicated and the tetrahedra on the +x side re-pointed, as a cut leaves them.
+void cut(Scene& s, double half_length) {
+  TetMesh& m = s.mesh;
+  double plane = 1e9;
+  for (const NodeId n : m.nodes())
+    if (std::abs(m.rest(n).x()) < std::abs(plane)) plane = m.rest(n).x();
+  std::map<NodeId, NodeId> dup;
+  std::vector<NodeId> nodes;
+  std::vector<NodeParents> parents;
+  for (const NodeId n : m.nodes()) {
+    const Vec3& x = m.rest(n);
+    if (std::abs(x.x() - plane) < 1e-12 && std::abs(x.y()) < half_length && x.z() > -0.002 + 1e-12) {
+      NodeParents p;
+      p.parents = {n, NodeId{}, NodeId{}};
+      p.weights = {1.0, 0.0, 0.0};
+      p.count = 1;
+      dup[n] = m.add_interpolated_node(p);
+      nodes.push_back(dup[n]);
+      parents.push_back(p);
+    }
+  }
+  std::vector<std::uint32_t> removed;
+  std::vector<TetId> added;
+  for (const TetId t : m.tets()) {
+    auto v = m.tet_nodes(t);
+    double cx = 0;
+    bool touches = false;
+    for (const NodeId n : v) {
+      cx += m.rest(n).x() / 4;
+      touches = touches || dup.count(n) > 0;
+    }
+    if (!touches || cx < plane) continue;
+    for (NodeId& n : v)
+      if (dup.count(n)) n = dup[n];
+    const int region = m.region(t);
+    const std::uint32_t parent = m.parent(t);
+    m.remove_tet(t);
+    removed.push_back(t.index);
+    const TetId c = m.add_tet(v, region);
+    m.set_parent(c, parent);
+    added.push_back(c);
+  }
+  s.model->on_nodes_added(nodes, parents);
+  s.model->on_tets_removed(removed);
+  s.model->on_tets_added(added);
+}
+
+TissueKind kind_of(const benchmark::State& state) {
+  return state.range(1) == 0 ? TissueKind::Corotational : TissueKind::MassSpring;
+}
+
+void BM_TissueStep(benchmark::State& state) {
+  auto s = make_scene(static_cast<int>(state.range(0)), kind_of(state), 1e-3);
+  double iterations = 0, residual = 0, steps = 0;
+  for (auto _ : state) {
+    const StepStats st = s->model->step(kDt);
+    iterations += st.cg_iterations;
+    residual = std::max(residual, st.residual);
+    steps += 1;
+  }
+  state.counters["tets"] = static_cast<double>(s->mesh.tet_count());
+  state.counters["cg_iterations"] = iterations / steps;
+  state.counters["max_residual"] = residual;
+}
+
+// The step right after an incision against the mean step before it (manual time = the first step
+// after the cut, which includes the topology update).
+void BM_TissueStepAfterCut(benchmark::State& state) {
+  using clock = std::chrono::steady_clock;
+  for (auto _ : state) {
+    state.PauseTiming();
+    auto s = make_scene(static_cast<int>(state.range(0)), kind_of(state), 1e-3);
+    double before = 0, cg_before = 0;
+    const int n = 20;
+    for (int k = 0; k < n; ++k) {
+      const auto t0 = clock::now();
+      cg_before += s->model->step(kDt).cg_iterations;
+      before += std::chrono::duration<double>(clock::now() - t0).count();
+    }
+    before /= n;
+    cut(*s, 0.006);
+    state.ResumeTiming();
+    const auto t0 = clock::now();
+    const StepStats st = s->model->step(kDt);
+    const double after = std::chrono::duration<double>(clock::now() - t0).count();
+    state.SetIterationTime(after);
+    state.counters["tets"] = static_cast<double>(s->mesh.tet_count());
+    state.counters["before_ms"] = 1e3 * before;
+    state.counters["after_ms"] = 1e3 * after;
+    state.counters["ratio"] = after / before;
+    state.counters["cg_before"] = cg_before / n;
+    state.counters["cg_after"] = st.cg_iterations;
+    state.counters["residual_after"] = st.residual;
+  }
+}
+
+// cells per side: 12 -> 5184, 24 -> 20736, 37 -> 49284 tetrahedra; second argument 0 = FEM,
+// 1 = mass-spring.
+BENCHMARK(BM_TissueStep)->ArgsProduct({{12, 24, 37}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_TissueStepAfterCut)
+    ->ArgsProduct({{12, 24, 37}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->Iterations(3);
+
+}  // namespace
+
+BENCHMARK_MAIN();

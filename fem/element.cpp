@@ -1,0 +1,128 @@
+#include "fem/element.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace scalpel {
+
+TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sliver_quality) {
+  TetRest r;
+  Mat3 dm;
+  dm << x[1] - x[0], x[2] - x[0], x[3] - x[0];
+  const double vol = dm.determinant() / 6.0;
+  double sum_sq = 0;
+  std::array<double, 6> len{};
+  for (size_t e = 0; e < 6; ++e) {
+    len[e] =
+        (x[static_cast<size_t>(kEdgeVertices[e][1])] - x[static_cast<size_t>(kEdgeVertices[e][0])]).norm();
+    sum_sq += len[e] * len[e];
+  }
+  r.mass_volume = std::max(vol, 0.0);
+  if (!(vol > 0) || !std::isfinite(vol) || !(sum_sq > 0)) return r;  // degenerate: inert, massless
+  const double l_rms = std::sqrt(sum_sq / 6.0);
+  r.quality = 6.0 * std::sqrt(2.0) * vol / (l_rms * l_rms * l_rms);
+  r.stiffness_scale = sliver_quality > 0 ? std::min(1.0, r.quality / sliver_quality) : 1.0;
+  // Below kInertQuality the rest gradients (~1/height) amplify the rounding noise of the positions
+  // into O(1) strains: such an element carries mass only.
+  if (r.quality < kInertQuality) {
+    r.stiffness_scale = 0;
+    return r;
+  }
+
+  // Prestress: rest shape scaled by 1/lambda0 (DESIGN section 6).
+  const double l0 = m.prestress;
+  const Mat3 inv = dm.inverse() * l0;  // rows are b_1..b_3 of the prestressed rest shape
+  for (int a = 1; a < 4; ++a) r.grad.col(a) = inv.row(a - 1).transpose();
+  r.grad.col(0) = -(r.grad.col(1) + r.grad.col(2) + r.grad.col(3));
+  r.volume = vol / (l0 * l0 * l0);
+
+  const Lame lame = lame_parameters(m);
+  r.mu = lame.mu * r.stiffness_scale;
+  r.lambda = lame.lambda * r.stiffness_scale;
+  for (size_t e = 0; e < 6; ++e) {
+    r.rest_length[e] = len[e] / l0;
+    r.spring_k[e] = r.stiffness_scale * m.young * r.volume / (r.rest_length[e] * r.rest_length[e]);
+  }
+  const double kappa = m.young / (3.0 * (1.0 - 2.0 * m.poisson));
+  r.volume_k = r.stiffness_scale * kappa / r.volume;
+  return r;
+}
+
+// Müller, Bender, Chentanez, Macklin 2016, Algorithm 1: rotate q about the axis that best aligns
+// the columns of R with those of F until the correction vanishes.
+void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) {
+  if (!q.coeffs().allFinite() || q.norm() < 0.5) q.setIdentity();
+  for (int it = 0; it < max_iterations; ++it) {
+    const Mat3 r = q.toRotationMatrix();
+    const Vec3 num = r.col(0).cross(f.col(0)) + r.col(1).cross(f.col(1)) + r.col(2).cross(f.col(2));
+    const double den = std::abs(r.col(0).dot(f.col(0)) + r.col(1).dot(f.col(1)) + r.col(2).dot(f.col(2)));
+    const Vec3 omega = num / (den + 1e-300);
+    const double w = omega.norm();
+    if (!(w > 1e-15)) break;
+    q = Eigen::Quaterniond(Eigen::AngleAxisd(w, omega / w)) * q;
+    q.normalize();
+  }
+}
+
+void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
+                           CorotationalState& out) {
+  Mat3 f = Mat3::Zero();
+  for (int a = 0; a < 4; ++a) f.noalias() += x[static_cast<size_t>(a)] * rest.grad.col(a).transpose();
+  extract_rotation(f, q);
+  const Mat3 r = q.toRotationMatrix();
+  const Mat3 rtf = r.transpose() * f;
+  const Mat3 eps = 0.5 * (rtf + rtf.transpose()) - Mat3::Identity();
+  const double tr = eps.trace();
+  Mat3 sigma = 2.0 * rest.mu * eps;
+  sigma.diagonal().array() += rest.lambda * tr;
+  out.c.noalias() = r * rest.grad;
+  out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
+  out.energy = rest.volume * (rest.mu * eps.squaredNorm() + 0.5 * rest.lambda * tr * tr);
+}
+
+void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out) {
+  out.force.setZero();
+  double energy = 0;
+  for (size_t e = 0; e < 6; ++e) {
+    const int i = kEdgeVertices[e][0], j = kEdgeVertices[e][1];
+    const Vec3 d = x[static_cast<size_t>(j)] - x[static_cast<size_t>(i)];
+    const double l = d.norm();
+    const double stretch = l - rest.rest_length[e];
+    out.direction[e] = l > 0 ? Vec3(d / l) : Vec3::UnitX();
+    out.tension[e] = l > 0 ? std::max(0.0, 1.0 - rest.rest_length[e] / l) : 0.0;
+    const Vec3 fs = rest.spring_k[e] * stretch * out.direction[e];
+    out.force.col(i) += fs;
+    out.force.col(j) -= fs;
+    energy += 0.5 * rest.spring_k[e] * stretch * stretch;
+  }
+  const Vec3 e1 = x[1] - x[0], e2 = x[2] - x[0], e3 = x[3] - x[0];
+  out.volume_grad.col(1) = e2.cross(e3) / 6.0;
+  out.volume_grad.col(2) = e3.cross(e1) / 6.0;
+  out.volume_grad.col(3) = e1.cross(e2) / 6.0;
+  out.volume_grad.col(0) = -(out.volume_grad.col(1) + out.volume_grad.col(2) + out.volume_grad.col(3));
+  const double dv = e1.dot(e2.cross(e3)) / 6.0 - rest.volume;
+  out.force -= rest.volume_k * dv * out.volume_grad;
+  out.energy = energy + 0.5 * rest.volume_k * dv * dv;
+}
+
+namespace {
+
+template <class Block>
+Mat12 full_matrix(Block block) {
+  Mat12 k;
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) k.block<3, 3>(3 * a, 3 * b) = block(a, b);
+  return k;
+}
+
+}  // namespace
+
+Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s) {
+  return full_matrix([&](int a, int b) { return corotational_block(rest, s, a, b); });
+}
+
+Mat12 mass_spring_stiffness(const TetRest& rest, const MassSpringState& s) {
+  return full_matrix([&](int a, int b) { return mass_spring_block(rest, s, a, b); });
+}
+
+}  // namespace scalpel

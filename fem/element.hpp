@@ -1,0 +1,129 @@
+// Element kernels of the tissue models (DESIGN section 6).
+//
+// Co-rotational linear FEM on a linear tetrahedron: Müller & Gross, "Interactive Virtual
+// Materials", GI 2004, section 4. With F = sum_a x_a b_a^T the deformation gradient (b_a the
+// gradients of the barycentric coordinates over the rest shape [1/m]) and F = R S its polar
+// decomposition, the element is linear elastic in the rotated frame:
+//   eps = sym(R^T F) - I,  sigma = 2 mu eps + lambda tr(eps) I  [Pa],
+//   energy W = V (mu eps:eps + lambda/2 tr(eps)^2)  [J],
+//   force f_a = -V R sigma b_a  [N]  (= -dW/dx_a exactly, since R^T F is symmetric),
+//   stiffness K_ab = R K0_ab R^T = V (lambda c_a c_b^T + mu c_b c_a^T + mu (c_a . c_b) I),
+// with c_a = R b_a: the paper's "one linearisation per step" keeps R fixed over the step.
+// R is found by the iterative rotation extraction of Müller, Bender, Chentanez, Macklin, "A Robust
+// Method to Extract the Rotational Part of Deformations", MIG 2016, warm-started from the last R.
+//
+// Mass-spring variant: a spring on each of the six edges of every tetrahedron (an edge shared by n
+// tetrahedra carries n springs, so the stiffness follows the volume around it) plus a volume term:
+//   W = sum_e k_e/2 (l_e - L_e)^2 + kappa/(2 V) (vol(x) - V)^2,
+//   k_e = E V / L_e^2 [N/m], kappa = E / (3 (1 - 2 nu)) [Pa].
+// The solver's stiffness clamps the transverse spring term to tension (compressed springs would
+// make it indefinite) and keeps only the Gauss-Newton part of the volume term.
+//
+// Prestress (DESIGN section 6): the rest shape is scaled by 1/lambda0, i.e. b_a -> lambda0 b_a,
+// V -> V / lambda0^3, L_e -> L_e / lambda0; the mesh's rest positions are left alone.
+//
+// Slivers: an element whose rest quality q = 6 sqrt(2) V / l_rms^3 (1 for the regular
+// tetrahedron, -> 0 for slivers) is below q_min has its moduli scaled by q / q_min. A sliver's
+// stiffness grows like 1/q; the scaling bounds it by that of a q_min element of the same size, so
+// a cut cannot make the system arbitrarily ill-conditioned. Mass stays exact. Below kInertQuality
+// an element carries mass only: its gradients would turn position round-off into strain.
+#pragma once
+
+#include <array>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "cutting/mesh.hpp"
+#include "fem/material.hpp"
+
+namespace scalpel {
+
+using Mat3 = Eigen::Matrix3d;
+using Mat34 = Eigen::Matrix<double, 3, 4>;
+using Vec12 = Eigen::Matrix<double, 12, 1>;
+using Mat12 = Eigen::Matrix<double, 12, 12>;
+
+inline constexpr double kInertQuality = 1e-8;
+
+enum class TissueKind { Corotational, MassSpring };
+
+// Rest data of one tetrahedron, computed once when the element is born (STYLE item 6).
+struct TetRest {
+  Mat34 grad = Mat34::Zero();           // b_a, prestressed rest shape [1/m]
+  double volume = 0;                    // prestressed rest volume V [m^3]
+  double mass_volume = 0;               // true rest volume, for the lumped mass [m^3]
+  double mu = 0, lambda = 0;            // Lamé parameters after sliver scaling [Pa]
+  std::array<double, 6> rest_length{};  // L_e, prestressed [m]
+  std::array<double, 6> spring_k{};     // k_e [N/m]
+  double volume_k = 0;                  // kappa / V [Pa/m^3]
+  double quality = 0;                   // q of the unscaled rest shape [-]
+  double stiffness_scale = 0;           // min(1, q / q_min); 0 for a degenerate element
+};
+
+// Rest data from the four rest vertices (positively oriented) and the region's material.
+[[nodiscard]] TetRest make_tet_rest(const std::array<Vec3, 4>& rest, const Material& m,
+                                    double sliver_quality);
+
+// Rotation of the polar decomposition of F, iterated from q (Müller et al. 2016).
+void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations = 100);
+
+// Per-step state of a co-rotational element: everything the assembly needs.
+struct CorotationalState {
+  Mat34 c;        // rotated gradients c_a = R b_a [1/m]
+  Mat34 force;    // f_a [N]
+  double energy;  // [J]
+};
+
+// Evaluates the element at current positions x; q is the warm start in, the rotation out.
+void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
+                           CorotationalState& out);
+
+// K_ab of the co-rotational element [N/m].
+[[nodiscard]] inline Mat3 corotational_block(const TetRest& rest, const CorotationalState& s, int a, int b) {
+  const auto ca = s.c.col(a), cb = s.c.col(b);
+  Mat3 k = rest.lambda * (ca * cb.transpose()) + rest.mu * (cb * ca.transpose());
+  k.diagonal().array() += rest.mu * ca.dot(cb);
+  return rest.volume * k;
+}
+
+struct MassSpringState {
+  std::array<Vec3, 6> direction;  // unit edge vectors n_e
+  std::array<double, 6> tension;  // clamped transverse factor max(0, 1 - L_e / l_e)
+  Mat34 volume_grad;              // d vol / d x_a [m^2]
+  Mat34 force;                    // [N]
+  double energy;                  // [J]
+};
+
+void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out);
+
+// Local edge joining vertices a != b (index into kEdgeVertices).
+inline constexpr std::array<std::array<int, 4>, 4> kEdgeOf = {
+    {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}}};
+
+// Spring stiffness of edge e: k_e (n n^T + s (I - n n^T)) [N/m].
+[[nodiscard]] inline Mat3 spring_block(const TetRest& rest, const MassSpringState& s, int e) {
+  const Vec3& n = s.direction[static_cast<size_t>(e)];
+  const double t = s.tension[static_cast<size_t>(e)];
+  Mat3 k = (1.0 - t) * (n * n.transpose());
+  k.diagonal().array() += t;
+  return rest.spring_k[static_cast<size_t>(e)] * k;
+}
+
+// K_ab of the mass-spring element [N/m].
+[[nodiscard]] inline Mat3 mass_spring_block(const TetRest& rest, const MassSpringState& s, int a, int b) {
+  Mat3 k = rest.volume_k * (s.volume_grad.col(a) * s.volume_grad.col(b).transpose());
+  if (a == b) {
+    for (int o = 0; o < 4; ++o)
+      if (o != a) k += spring_block(rest, s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(o)]);
+  } else {
+    k -= spring_block(rest, s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(b)]);
+  }
+  return k;
+}
+
+// Full 12x12 stiffness from the same blocks the solver assembles (for tests and tools).
+[[nodiscard]] Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s);
+[[nodiscard]] Mat12 mass_spring_stiffness(const TetRest& rest, const MassSpringState& s);
+
+}  // namespace scalpel

@@ -1,0 +1,144 @@
+// Prestressed soft tissue on the shared tetrahedral mesh (DESIGN section 6, paper section 7.2).
+//
+// Time integration: implicit Euler with one linearisation per step (Baraff & Witkin 1998; Müller &
+// Gross 2004, section 5), lumped mass M, Rayleigh damping C = alpha M + beta K per region:
+//   (M + dt C + dt^2 K) v1 = M v0 + dt (f(x0) + M g + f_ext),   x1 = x0 + dt v1,
+// solved by conjugate gradients with a 3x3 block-Jacobi preconditioner, warm-started from v0,
+// stopped at ||b - A v|| <= tolerance ||b|| or at the iteration cap. Fixed nodes have v = 0.
+//
+// The matrix is assembled row by row: each node row sums the blocks of its incident tetrahedra in
+// slot order, so both threads write disjoint rows and every reduction is over fixed chunks in a
+// fixed order: results are bit-identical run to run and for any thread count.
+//
+// Topology changes: the cutter edits the TetMesh and then notifies the model. Nothing is rebuilt
+// globally; at the next step only the rows of the vertices of added or removed tetrahedra are
+// rebuilt (their sparsity pattern and lumped mass). New tetrahedra compute their rest data from
+// their (interpolated) rest vertices and their region's material, and start their rotation from
+// the tetrahedron they descend from (mesh.parent). See fem/element.hpp for the element models,
+// prestress and the sliver remedy.
+//
+// Thread ownership: a TissueModel and its mesh belong to the simulation thread; calls are not
+// thread-safe. The model uses its own worker threads (OpenMP) inside step() only.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cutting/mesh.hpp"
+#include "fem/element.hpp"
+#include "fem/material.hpp"
+
+namespace scalpel {
+
+struct TissueSettings {
+  TissueKind kind = TissueKind::Corotational;
+  double tolerance = 1e-3;               // CG stop: relative residual ||r|| / ||b|| [-]
+  int max_iterations = 200;              // CG iteration cap
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
+  double sliver_quality = 0.05;          // q_min of the sliver remedy (element.hpp) [-]
+  int threads = 2;                       // worker threads in step()
+};
+
+enum class StepStatus {
+  Converged,     // relative residual reached the tolerance
+  IterationCap,  // state advanced with the last CG iterate; residual says how good it is
+  NonFinite,     // NaN or inf met: nothing was written, the last good state is kept
+};
+
+struct StepStats {
+  StepStatus status = StepStatus::Converged;
+  int cg_iterations = 0;
+  double residual = 0;        // final ||r|| / ||b|| [-]
+  double elastic_energy = 0;  // at the start of the step [J]
+  double kinetic_energy = 0;  // at the end of the step [J]
+  std::string message;        // why, when status == NonFinite
+};
+
+class TissueModel {
+ public:
+  // materials[r] is the material of region r; every tetrahedron's region must have one. Throws
+  // std::invalid_argument naming "materials[r].field" for a bad material.
+  TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueSettings settings = {});
+
+  // Advances positions and velocities of the mesh by dt [s].
+  StepStats step(double dt);
+  [[nodiscard]] const StepStats& last_step() const { return last_; }
+
+  // ---- boundary conditions and loads ---------------------------------------------------------
+  // A fixed node keeps its position (which the caller may set) and has zero velocity.
+  void set_fixed(NodeId n, bool fixed = true);
+  [[nodiscard]] bool fixed(NodeId n) const;
+  // External force on a node, e.g. tool contact [N]; stays until changed or cleared.
+  void set_external_force(NodeId n, const Vec3& f);
+  void clear_external_forces();
+
+  // ---- topology notifications (after the mesh was edited) -----------------------------------
+  // Removed tetrahedra, by slot index (their handles are dead already).
+  void on_tets_removed(std::span<const std::uint32_t> slots);
+  void on_tets_added(std::span<const TetId> tets);
+  // New nodes; parents[i] (if given) are the nodes node[i] was interpolated from: a node whose
+  // parents are all fixed is fixed (a node on an edge between fixed nodes stays fixed).
+  void on_nodes_added(std::span<const NodeId> nodes, std::span<const NodeParents> parents = {});
+
+  // ---- queries -------------------------------------------------------------------------------
+  // Elastic energy at the current positions [J].
+  [[nodiscard]] double elastic_energy();
+  [[nodiscard]] double kinetic_energy() const;
+  // Internal elastic forces at the current positions, indexed by node slot [N].
+  [[nodiscard]] std::vector<Vec3> internal_forces();
+  [[nodiscard]] double mass(NodeId n) const;  // lumped [kg]
+  [[nodiscard]] const TetRest& tet_rest(TetId t) const;
+  [[nodiscard]] TissueSettings& settings() { return settings_; }
+  [[nodiscard]] const std::vector<Material>& materials() const { return materials_; }
+
+ private:
+  struct Entry {  // one incident tetrahedron of a node row
+    std::uint32_t tet;
+    int local;                           // the node's local vertex index a in the tet
+    std::array<std::uint32_t, 4> block;  // position in the row of the column of vertex b
+  };
+  struct Row {
+    std::vector<std::uint32_t> cols;  // sorted node slots, including the node itself
+    std::vector<Mat3> blocks;         // A(row, cols[k])
+    std::vector<Entry> entries;       // sorted by tet slot
+    std::uint32_t diag = 0;
+  };
+
+  void grow();
+  void mark_tet_nodes(std::uint32_t t);
+  void refresh();
+  void rebuild_row(std::uint32_t i);
+  void evaluate_elements(double& energy);
+  void assemble(double dt);
+  void multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y, double& dot_xy);
+
+  TetMesh& mesh_;
+  std::vector<Material> materials_;
+  TissueSettings settings_;
+  StepStats last_;
+
+  // Per tet slot.
+  std::vector<TetRest> rest_;
+  std::vector<Eigen::Quaterniond> rotation_;
+  std::vector<std::array<std::uint32_t, 4>> tet_vertices_;  // as the model last saw them
+  std::vector<int> tet_region_;
+  std::vector<std::uint8_t> tet_on_;
+  std::vector<CorotationalState> corot_;
+  std::vector<MassSpringState> spring_;
+
+  // Per node slot.
+  std::vector<std::uint8_t> fixed_, active_, dirty_;
+  std::vector<Vec3> external_;
+  std::vector<double> mass_;
+  std::vector<Row> rows_;
+  std::vector<std::uint32_t> dirty_list_;
+
+  // Step scratch, sized to the node capacity (no allocation in the hot loops).
+  std::vector<Vec3> b_, v_, r_, z_, p_, q_;
+  std::vector<Mat3> diag_inverse_;
+  std::vector<double> partial_;
+};
+
+}  // namespace scalpel

@@ -1,0 +1,223 @@
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+
+#include <Eigen/Eigenvalues>
+
+#include "fem/element.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+using X4 = std::array<Vec3, 4>;
+
+// A random, reasonably shaped, positively oriented tetrahedron of size ~1 cm.
+X4 random_tet(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  X4 x{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+  for (Vec3& p : x) p = 0.01 * (p + Vec3(u(rng), u(rng), u(rng)));
+  Mat3 d;
+  d << x[1] - x[0], x[2] - x[0], x[3] - x[0];
+  if (d.determinant() < 0) std::swap(x[2], x[3]);
+  return x;
+}
+
+Mat3 random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> n;
+  return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
+}
+
+X4 deform(const X4& x, const Mat3& a, const Vec3& t) {
+  X4 y;
+  for (size_t i = 0; i < 4; ++i) y[i] = a * x[i] + t;
+  return y;
+}
+
+Vec12 flat(const X4& x) {
+  Vec12 v;
+  for (int i = 0; i < 4; ++i) v.segment<3>(3 * i) = x[static_cast<size_t>(i)];
+  return v;
+}
+
+X4 unflat(const Vec12& v) {
+  X4 x;
+  for (int i = 0; i < 4; ++i) x[static_cast<size_t>(i)] = v.segment<3>(3 * i);
+  return x;
+}
+
+struct Eval {
+  double energy;
+  Vec12 force;
+  Mat12 stiffness;
+};
+
+Eval evaluate(TissueKind kind, const TetRest& rest, const X4& x) {
+  if (kind == TissueKind::Corotational) {
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    CorotationalState s;
+    evaluate_corotational(rest, x, q, s);
+    return {s.energy, Eigen::Map<const Vec12>(s.force.data()), corotational_stiffness(rest, s)};
+  }
+  MassSpringState s;
+  evaluate_mass_spring(rest, x, s);
+  return {s.energy, Eigen::Map<const Vec12>(s.force.data()), mass_spring_stiffness(rest, s)};
+}
+
+Material tissue(double prestress) {
+  Material m;
+  m.young = 30e3;
+  m.poisson = 0.4;
+  m.prestress = prestress;
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("extract_rotation finds the rotation of the polar decomposition") {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  for (int k = 0; k < 50; ++k) {
+    const Mat3 r = random_rotation(rng);
+    Mat3 s;
+    s << 1 + u(rng), u(rng), u(rng), 0, 1 + u(rng), u(rng), 0, 0, 1 + u(rng);
+    s = 0.5 * (s + s.transpose()).eval();
+    s += Mat3::Identity();  // symmetric positive definite
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    extract_rotation(r * s, q);
+    CHECK((q.toRotationMatrix() - r).norm() < 1e-9);
+  }
+}
+
+TEST_CASE("element forces are minus the gradient of the energy (finite differences)") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-0.25, 0.25);
+  for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
+    for (const double prestress : {1.0, 1.15}) {
+      for (int k = 0; k < 20; ++k) {
+        const X4 rest = random_tet(rng);
+        const TetRest r = make_tet_rest(rest, tissue(prestress), 0.0);
+        Mat3 a = random_rotation(rng);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) a(i, j) += u(rng);
+        X4 x = deform(rest, a, Vec3(u(rng), u(rng), u(rng)));
+        if (Mat3(a).determinant() < 0.2) continue;  // keep away from inversion
+        const Eval e = evaluate(kind, r, x);
+        const Vec12 x0 = flat(x);
+        const double h = 1e-8;
+        Vec12 fd;
+        for (int i = 0; i < 12; ++i) {
+          Vec12 xp = x0, xm = x0;
+          xp[i] += h;
+          xm[i] -= h;
+          fd[i] = -(evaluate(kind, r, unflat(xp)).energy - evaluate(kind, r, unflat(xm)).energy) / (2 * h);
+        }
+        CAPTURE(k);
+        CAPTURE(prestress);
+        CHECK((fd - e.force).norm() <= 1e-6 * e.force.norm() + 1e-9);
+      }
+    }
+  }
+}
+
+TEST_CASE("element stiffness is minus the derivative of the forces at stress-free states") {
+  // At a rigidly moved (prestressed) rest shape the co-rotational linearisation K = R K0 R^T and
+  // the Gauss-Newton volume term are exact, so K must match finite differences of the forces.
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-0.01, 0.01);
+  for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
+    for (const double prestress : {1.0, 1.2}) {
+      for (int k = 0; k < 20; ++k) {
+        const X4 rest = random_tet(rng);
+        const TetRest r = make_tet_rest(rest, tissue(prestress), 0.0);
+        const X4 x = deform(rest, random_rotation(rng) / prestress, Vec3(u(rng), u(rng), u(rng)));
+        const Eval e = evaluate(kind, r, x);
+        CHECK(e.force.norm() < 1e-9 * e.stiffness.norm() * 0.01);
+        const Vec12 x0 = flat(x);
+        const double h = 1e-9;
+        Mat12 fd;
+        for (int i = 0; i < 12; ++i) {
+          Vec12 xp = x0, xm = x0;
+          xp[i] += h;
+          xm[i] -= h;
+          fd.col(i) = -(evaluate(kind, r, unflat(xp)).force - evaluate(kind, r, unflat(xm)).force) / (2 * h);
+        }
+        CAPTURE(k);
+        CHECK((fd - e.stiffness).norm() <= 1e-5 * e.stiffness.norm());
+      }
+    }
+  }
+}
+
+TEST_CASE("element stiffness is symmetric positive semi-definite and blind to translation") {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
+    for (int k = 0; k < 30; ++k) {
+      const X4 rest = random_tet(rng);
+      const TetRest r = make_tet_rest(rest, tissue(1.1), 0.05);
+      Mat3 a = random_rotation(rng);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) a(i, j) += u(rng);
+      const Eval e = evaluate(kind, r, deform(rest, a, Vec3::Zero()));
+      CHECK((e.stiffness - e.stiffness.transpose()).norm() <= 1e-12 * e.stiffness.norm());
+      const Eigen::SelfAdjointEigenSolver<Mat12> eig(e.stiffness);
+      CHECK(eig.eigenvalues().minCoeff() >= -1e-10 * eig.eigenvalues().maxCoeff());
+      Vec12 shift;
+      for (int i = 0; i < 4; ++i) shift.segment<3>(3 * i) = Vec3(0.3, -0.2, 0.7);
+      CHECK((e.stiffness * shift).norm() <= 1e-10 * e.stiffness.norm());
+      CHECK(std::abs(e.force.segment<3>(0).sum() + e.force.segment<3>(3).sum() + e.force.segment<3>(6).sum() +
+                     e.force.segment<3>(9).sum()) <= 1e-9 * (e.force.norm() + 1));
+    }
+  }
+}
+
+TEST_CASE("no element force under a rigid rotation without prestress") {
+  std::mt19937 rng(19);
+  for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
+    for (int k = 0; k < 20; ++k) {
+      const X4 rest = random_tet(rng);
+      const TetRest r = make_tet_rest(rest, tissue(1.0), 0.0);
+      const Eval e = evaluate(kind, r, deform(rest, random_rotation(rng), Vec3(0.1, 0.2, -0.3)));
+      // Forces of a 1 % strain for scale.
+      const Eval ref = evaluate(kind, r, deform(rest, 1.01 * Mat3::Identity(), Vec3::Zero()));
+      CHECK(e.force.norm() <= 1e-8 * ref.force.norm());
+      CHECK(e.energy <= 1e-14 * ref.energy);
+    }
+  }
+}
+
+TEST_CASE("slivers have their stiffness bounded by the quality floor") {
+  // A regular-ish tet squashed towards its base face: stiffness ~ 1/height without the remedy.
+  const Material m = tissue(1.0);
+  const double q_min = 0.05;
+  double last_norm = 0;
+  for (const double height : {1e-3, 1e-5, 1e-7}) {
+    const X4 x{Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.005, 0.0087, 0), Vec3(0.005, 0.003, 0.01 * height)};
+    const TetRest r = make_tet_rest(x, m, q_min);
+    CHECK(r.quality < q_min);
+    CHECK(r.stiffness_scale == doctest::Approx(r.quality / q_min));
+    CHECK(r.mass_volume > 0);
+    const Eval e = evaluate(TissueKind::Corotational, r, x);
+    const double norm = e.stiffness.norm();
+    CHECK(std::isfinite(norm));
+    if (last_norm > 0) CHECK(norm <= 1.01 * last_norm);  // flatter is not stiffer
+    last_norm = norm;
+    const TetRest raw = make_tet_rest(x, m, 0.0);
+    CHECK(raw.stiffness_scale == 1.0);
+  }
+  // Below the inert floor an element keeps its mass and loses its stiffness.
+  const X4 needle{Vec3(0, 0, 0), Vec3(0.01, 0, 0), Vec3(0.005, 0.0087, 0), Vec3(0.005, 0.003, 1e-12)};
+  const TetRest inert = make_tet_rest(needle, m, 0.0);
+  CHECK(inert.quality < kInertQuality);
+  CHECK(inert.stiffness_scale == 0);
+  CHECK(inert.mass_volume > 0);
+  // A degenerate (flat) element is inert instead of producing NaN.
+  const X4 flat_tet{Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0)};
+  const TetRest r = make_tet_rest(flat_tet, m, q_min);
+  CHECK(r.stiffness_scale == 0);
+  const Eval e = evaluate(TissueKind::Corotational, r, flat_tet);
+  CHECK(e.force.allFinite());
+  CHECK(e.force.norm() == 0);
+}
