@@ -125,6 +125,9 @@ class CutEngine {
   // Rest positions of the points the cut has reached: edge cut points and entry nodes (the tip's
   // path), in the order they were made (for task scoring).
   [[nodiscard]] std::vector<Vec3> cut_points() const;
+  // The largest distance between two copies of one cut node [m], current configuration: how far
+  // the cut has opened.
+  [[nodiscard]] double crack_opening() const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
 

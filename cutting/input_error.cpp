@@ -8,11 +8,11 @@ namespace {
 std::string format(const std::string& file, int line, int column, const std::string& field,
                    const std::string& message) {
   std::string s = file;
-  if (line > 0) s += ":" + std::to_string(line);
-  if (line > 0 && column > 0) s += ":" + std::to_string(column);
-  s += ": ";
-  if (!field.empty()) s += field + ": ";
-  return s + message;
+  if (line > 0) s.append(":").append(std::to_string(line));
+  if (line > 0 && column > 0) s.append(":").append(std::to_string(column));
+  s.append(": ");
+  if (!field.empty()) s.append(field).append(": ");
+  return s.append(message);
 }
 
 }  // namespace

@@ -243,6 +243,34 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                           {"checked_after_every_step", false},
 #endif
                           {"violations", violations}};
+  {
+    const auto& steps = sim.tissue_steps();
+    std::size_t converged = 0, capped = 0, non_finite = 0;
+    double iterations = 0, max_residual = 0;
+    int max_iterations = 0;
+    for (const StepStats& st : steps) {
+      converged += st.status == StepStatus::Converged ? 1 : 0;
+      capped += st.status == StepStatus::IterationCap ? 1 : 0;
+      non_finite += st.status == StepStatus::NonFinite ? 1 : 0;
+      iterations += st.cg_iterations;
+      max_iterations = std::max(max_iterations, st.cg_iterations);
+      max_residual = std::max(max_residual, st.residual);
+    }
+    const double n = std::max<double>(1.0, static_cast<double>(steps.size()));
+    report["tissue"] = {
+        {"model", to_string(scenario.tissue.model)},
+        {"rate", scenario.tissue.rate},
+        {"steps", steps.size()},
+        {"converged", converged},
+        {"iteration_cap", capped},
+        {"non_finite", non_finite},
+        {"cg_iterations", {{"mean", iterations / n}, {"max", max_iterations}}},
+        {"relative_residual", {{"max", max_residual}, {"last", steps.empty() ? 0.0 : steps.back().residual}}},
+        {"energy",
+         {{"elastic", steps.empty() ? 0.0 : steps.back().elastic_energy},
+          {"kinetic", steps.empty() ? 0.0 : steps.back().kinetic_energy}}},
+        {"wound_opening", sim.wound_opening()}};
+  }
   if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);
   report["timings"] = {
       {"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},

@@ -198,7 +198,7 @@ class Parser {
   // ---- sections ------------------------------------------------------------------------------
   void mesh(const Value& v, MeshSource& out) const;
   void materials(const Value& v, Scenario& s) const;
-  void tissue(const Value& v, TissueSettings& out) const;
+  void tissue(const Value& v, TissueSection& out) const;
   void fixed(const Value& v, std::vector<FixedSelector>& out) const;
   void tool(const Value& v, ToolSettings& out) const;
   void device(const Value& v, DeviceSettings& out) const;
@@ -381,12 +381,12 @@ void Parser::materials(const Value& v, Scenario& s) const {
 
 // ---- tissue, boundary, tool, device, simulation, task ------------------------------------------------
 
-void Parser::tissue(const Value& v, TissueSettings& out) const {
+void Parser::tissue(const Value& v, TissueSection& out) const {
   const Map m(*this, v);
   m.only({"model", "rate", "solver", "gravity", "volume_springs"});
   if (const auto x = m.get("model"))
-    out.model = choice(*x, {"corotational", "mass_spring"}) == 0 ? TissueModel::Corotational
-                                                                 : TissueModel::MassSpring;
+    out.model =
+        choice(*x, {"corotational", "mass_spring"}) == 0 ? TissueKind::Corotational : TissueKind::MassSpring;
   if (const auto x = m.get("rate")) out.rate = positive(*x, 10000.0);
   if (const auto x = m.get("solver")) {
     const Map sm(*this, *x);
@@ -400,8 +400,7 @@ void Parser::tissue(const Value& v, TissueSettings& out) const {
   if (const auto x = m.get("gravity")) out.gravity = vector<3>(*x);
   if (const auto x = m.get("volume_springs")) {
     out.volume_springs = boolean(*x);
-    if (out.model != TissueModel::MassSpring)
-      fail(x->key_mark, x->path, "applies to model: mass_spring only");
+    if (out.model != TissueKind::MassSpring) fail(x->key_mark, x->path, "applies to model: mass_spring only");
   }
 }
 
@@ -725,8 +724,8 @@ std::vector<NodeId> select_fixed_nodes(const Scenario& s, const TetMesh& mesh) {
   return out;
 }
 
-const char* to_string(TissueModel m) {
-  return m == TissueModel::Corotational ? "corotational" : "mass_spring";
+const char* to_string(TissueKind m) {
+  return m == TissueKind::Corotational ? "corotational" : "mass_spring";
 }
 
 const char* to_string(DeviceKind k) {

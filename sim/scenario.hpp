@@ -16,6 +16,7 @@
 
 #include "cutting/generators.hpp"
 #include "cutting/mesh.hpp"
+#include "fem/element.hpp"
 #include "fem/material.hpp"
 
 namespace scalpel {
@@ -44,10 +45,10 @@ struct RegionMaterial {
   SourceLocation where;  // of the region's key
 };
 
-enum class TissueModel { Corotational, MassSpring };
+// The tissue model kind is fem's TissueKind (corotational or mass_spring).
 
-struct TissueSettings {
-  TissueModel model = TissueModel::Corotational;
+struct TissueSection {
+  TissueKind model = TissueKind::Corotational;
   double rate = 60.0;                    // [Hz] tissue steps per second, time step 1 / rate
   double cg_tolerance = 1e-6;            // [-] CG stops at |r| <= tolerance * |b|
   int cg_max_iterations = 200;           // CG iterations per step
@@ -115,7 +116,7 @@ struct Scenario {
   MeshSource mesh;
   std::vector<RegionMaterial> materials;  // file order
   SourceLocation materials_where;         // of the `materials` key
-  TissueSettings tissue;
+  TissueSection tissue;
   std::vector<FixedSelector> fixed;
   ToolSettings tool;
   DeviceSettings device;
@@ -156,7 +157,7 @@ using RegionIds = std::map<std::string, int>;
 // selects no node.
 [[nodiscard]] std::vector<NodeId> select_fixed_nodes(const Scenario& scenario, const TetMesh& mesh);
 
-[[nodiscard]] const char* to_string(TissueModel m);
+[[nodiscard]] const char* to_string(TissueKind m);
 [[nodiscard]] const char* to_string(DeviceKind k);
 [[nodiscard]] const char* to_string(Side s);
 

@@ -1,5 +1,6 @@
 #include "sim/simulation.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 namespace scalpel {
@@ -26,6 +27,18 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   regions_ = std::move(m.regions);
   initial_volume_ = mesh_.total_rest_volume();
   cutter_ = std::make_unique<CutEngine>(mesh_);
+
+  // Tissue (DESIGN section 6): materials by region id, the scenario's solver, the fixed boundary.
+  const std::map<int, Material> by_region = resolve_materials(scenario_, regions_, mesh_);
+  std::vector<Material> materials(by_region.empty() ? 1 : static_cast<size_t>(by_region.rbegin()->first) + 1);
+  for (const auto& [region, material] : by_region) materials[static_cast<size_t>(region)] = material;
+  TissueSettings settings;
+  settings.kind = scenario_.tissue.model;
+  settings.tolerance = scenario_.tissue.cg_tolerance;
+  settings.max_iterations = scenario_.tissue.cg_max_iterations;
+  settings.gravity = scenario_.tissue.gravity;
+  tissue_ = std::make_unique<TissueModel>(mesh_, std::move(materials), settings);
+  for (const NodeId n : select_fixed_nodes(scenario_, mesh_)) tissue_->set_fixed(n);
 }
 
 Simulation::~Simulation() = default;
@@ -43,11 +56,33 @@ void Simulation::on_sample(const ToolSample& s) {
   const CutStepStats stats = cutter_->step(blade(s));
   cut_seconds_.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   edges_cut_in_frame_ += stats.edges_cut;
+  // Topology changes go to the tissue model. Elements around a mid node that slid with the blade
+  // changed their rest shape: they are handed over as removed and added again.
+  const CutChanges& c = cutter_->changes();
+  std::vector<std::uint32_t> removed = c.removed_tets;
+  std::vector<TetId> added = c.added_tets;
+  for (const NodeId n : c.moved_nodes)
+    for (const std::uint32_t t : mesh_.node_tets(n))
+      if (std::find(added.begin(), added.end(), mesh_.tet_handle(t)) == added.end()) {
+        removed.push_back(t);
+        added.push_back(mesh_.tet_handle(t));
+      }
+  if (!c.added_nodes.empty()) tissue_->on_nodes_added(c.added_nodes, c.added_node_parents);
+  if (!removed.empty()) tissue_->on_tets_removed(removed);
+  if (!added.empty()) tissue_->on_tets_added(added);
   last_ = s;
   ++samples_;
 }
 
 void Simulation::end_frame(double t, ForceChannel& forces) {
+  const double dt = 1.0 / scenario_.tissue.rate;
+  while (tissue_time_ + dt <= t + 1e-12) {
+    const auto start = std::chrono::steady_clock::now();
+    tissue_stats_.push_back(tissue_->step(dt));
+    tissue_seconds_.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    tissue_time_ += dt;
+  }
   cutter_->refit();
   // The force model the haptic loop renders until the next frame. The tissue does not constrain the
   // tool yet, so the coupling holds it where it is; while edges are being cut the blade meets a
@@ -60,6 +95,14 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   model.cutting_resistance = edges_cut_in_frame_ > 0 ? kCuttingResistance : 0.0;
   forces.publish(model);
   edges_cut_in_frame_ = 0;
+}
+
+}  // namespace scalpel
+
+namespace scalpel {
+
+double Simulation::wound_opening() const {
+  return cutter_->crack_opening();
 }
 
 }  // namespace scalpel

@@ -12,6 +12,7 @@
 #include "cutting/mesh.hpp"
 #include "cutting/mesh_io.hpp"
 #include "devices/tool_sample.hpp"
+#include "fem/tissue.hpp"
 #include "haptics/force_model.hpp"
 #include "sim/scenario.hpp"
 
@@ -41,8 +42,8 @@ class Simulation {
 
   // One tool sample from the queue: a sweep step of the cutter.
   void on_sample(const ToolSample& device_sample);
-  // The end of a visual frame at time t [s]: refits the collision structure and publishes the
-  // force model.
+  // The end of a visual frame at time t [s]: steps the tissue up to t at the scenario's tissue
+  // rate, refits the collision structure to the moved nodes and publishes the force model.
   void end_frame(double t, ForceChannel& forces);
 
   [[nodiscard]] const Scenario& scenario() const { return scenario_; }
@@ -53,6 +54,11 @@ class Simulation {
   [[nodiscard]] std::size_t samples() const { return samples_; }
   [[nodiscard]] const std::vector<double>& cut_step_seconds() const { return cut_seconds_; }
   [[nodiscard]] const ToolSample& last_sample() const { return last_; }
+  [[nodiscard]] const TissueModel& tissue() const { return *tissue_; }
+  [[nodiscard]] const std::vector<StepStats>& tissue_steps() const { return tissue_stats_; }
+  [[nodiscard]] const std::vector<double>& tissue_step_seconds() const { return tissue_seconds_; }
+  // Widest opening of the wound: the largest distance between two copies of one cut node [m].
+  [[nodiscard]] double wound_opening() const;
 
  private:
   Scenario scenario_;
@@ -60,6 +66,10 @@ class Simulation {
   RegionIds regions_;
   double initial_volume_ = 0.0;
   std::unique_ptr<CutEngine> cutter_;
+  std::unique_ptr<TissueModel> tissue_;
+  double tissue_time_ = 0.0;  // [s] simulated tissue time
+  std::vector<StepStats> tissue_stats_;
+  std::vector<double> tissue_seconds_;
   std::size_t samples_ = 0;
   std::size_t edges_cut_in_frame_ = 0;
   ToolSample last_;

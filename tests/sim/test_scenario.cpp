@@ -133,7 +133,7 @@ TEST_CASE("scenario: the bundled skin incision loads") {
 TEST_CASE("scenario: optional sections take their defaults") {
   const Scenario s = parse_scenario(base_text(), "base.yaml", "/somewhere");
   CHECK(s.file == "base.yaml");
-  CHECK(s.tissue.model == TissueModel::Corotational);
+  CHECK(s.tissue.model == TissueKind::Corotational);
   CHECK(s.tissue.rate == 60.0);
   CHECK(s.tissue.cg_tolerance == 1e-6);
   CHECK(s.tissue.cg_max_iterations == 200);
@@ -177,7 +177,7 @@ TEST_CASE("scenario: every section parsed") {
                            "simulation: {visual_rate: 30, duration: 12.5}\n"
                            "log: logs/run.csv\n";
   const Scenario s = parse_scenario(text, "full.yaml", "/data/scen");
-  CHECK(s.tissue.model == TissueModel::MassSpring);
+  CHECK(s.tissue.model == TissueKind::MassSpring);
   CHECK(s.tissue.rate == 120.0);
   CHECK(s.tissue.cg_tolerance == 1e-8);
   CHECK(s.tissue.cg_max_iterations == 50);
