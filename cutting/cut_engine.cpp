@@ -289,7 +289,7 @@ void CutEngine::update_face_position(std::uint32_t id) {
         best_local = local;
       }
     }
-    best_local = clamp_interior(best_local, 0.01);
+    best_local = clamp_interior(best_local, options_.min_face_bary);
     w = best_local[0] * e;
     w[(best + 1) % 3] += best_local[1];
     w[(best + 2) % 3] += best_local[2];
@@ -620,7 +620,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const auto& p : sweep_result_.pierces) {
     const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
     if (entry_nodes_.count(k)) continue;
-    const Vec3 w = clamp_interior(face_bary(k, p.point), 0.05);
+    const Vec3 w = clamp_interior(face_bary(k, p.point), options_.min_face_bary);
     entry_nodes_.emplace(k, new_cut_node(CutNode::Kind::Entry, k, w));
     changed_faces.insert(k);
     positioned_faces.insert(k);

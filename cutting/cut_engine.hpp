@@ -43,11 +43,13 @@
 namespace scalpel {
 
 struct CutOptions {
-  // Cut nodes are kept this far (relative) from the vertices of their edge or face, so no element
-  // degenerates into a zero-volume sliver (DESIGN §6). Edge parameter t is clamped to
-  // [min_edge_param, 1 - min_edge_param]; face barycentrics to at least min_face_bary.
-  double min_edge_param = 1e-3;
-  double min_face_bary = 1e-3;
+  // Cut nodes are kept this far (relative) from the vertices of their edge or face, so that no
+  // element degenerates to zero volume when the blade passes exactly through a vertex: edge
+  // parameter t is clamped to [min_edge_param, 1 - min_edge_param], face barycentrics to at least
+  // min_face_bary. Small enough that a planar cut stays planar to far below the volume tolerance
+  // of DESIGN section 5; the remaining slivers are the tissue model's to condition (DESIGN section 6).
+  double min_edge_param = 1e-6;
+  double min_face_bary = 1e-6;
   // The state machine's table; null: the bundled config/cutting/state_machine.cut.
   const CutTable* table = nullptr;
 };

@@ -5,6 +5,8 @@
 
 #include "cutting/cut_engine.hpp"
 #include "cutting/generators.hpp"
+#include "cutting/mesh_io.hpp"
+#include "cutting/quality.hpp"
 #include "cutting/topology.hpp"
 #include "cutting/validate.hpp"
 
@@ -150,4 +152,66 @@ TEST_CASE("a scalpel entering the top surface from above pierces faces before cu
   CHECK(cutter.totals().face_pierces >= 2);
   CHECK(cutter.totals().edges_cut > 0);
   CHECK(connected_components(mesh).count() == 1);
+}
+
+TEST_CASE("a planar through-cut of a gmsh-made irregular mesh separates exact halves") {
+  TetMesh mesh = read_gmsh(SCALPEL_TEST_MSH22);
+  const MeshSummary before = summarize(mesh);
+  CutEngine cutter(mesh);
+  // The block is 40 x 30 x 20 mm; cut it at x = c with a vertical blade longer than it is high.
+  const Vec3 lo = before.box_min, hi = before.box_max;
+  const double c = lo.x() + 0.4123 * (hi.x() - lo.x());
+  auto blade = [&](double y) {
+    return BladePose{Vec3(c, y, hi.z() + 0.01), Vec3(c, y, lo.z() - 0.01), Vec3::Zero()};
+  };
+  const double y0 = lo.y() - 0.005, y1 = hi.y() + 0.005;
+  const int steps = 400;
+  cutter.place(blade(y0));
+  for (int k = 1; k <= steps; ++k) {
+    cutter.step(blade(y0 + (y1 - y0) * k / steps));
+    require_valid(mesh, before.rest_volume);
+  }
+  const auto comps = connected_components(mesh);
+  REQUIRE(comps.count() == 2);
+  const double left = (c - lo.x()) * (hi.y() - lo.y()) * (hi.z() - lo.z());
+  const double right = before.rest_volume - left;
+  std::vector<double> v = comps.rest_volume;
+  std::sort(v.begin(), v.end());
+  const double small = std::min(left, right), large = std::max(left, right);
+  CHECK(std::abs(v[0] - small) <= 1e-9 * small);
+  CHECK(std::abs(v[1] - large) <= 1e-9 * large);
+  MESSAGE("irregular mesh: " << before.tets << " tetrahedra, " << cutter.totals().coarse_tets_cut << " cut, "
+                             << mesh.tet_count() << " after");
+}
+
+TEST_CASE("element counts per final pattern and tetrahedra per cut tetrahedron") {
+  // A lone tetrahedron put into each complete planar state: the subdivision the script's program
+  // makes, counted. Mid nodes sit on every face around a cut edge (section 5.2).
+  struct Expect {
+    CutTopology topology;
+    std::size_t tets;
+    std::size_t parts;
+  };
+  const std::vector<Expect> cases = {
+      {{0b000001, 0, 0}, 6, 1},     // A3: one edge and its two faces' mid nodes
+      {{0b000011, 0, 0}, 10, 1},    // B3: two adjacent edges, three faces with mid nodes
+      {{0b000111, 0, 0}, 11, 2},    // D3: the 1|3 split around vertex A
+      {{0b011110, 0, 0}, 15, 2},    // E3: the 2|2 split (loop AC AD BD BC)
+      {{0, 0b0100, 0b0100}, 5, 1},  // O: the tip pierced a face and the blade crossed it
+  };
+  for (const auto& e : cases) {
+    TetMesh mesh;
+    const NodeId a = mesh.add_node(Vec3(0, 0, 0)), b = mesh.add_node(Vec3(1, 0, 0)),
+                 c = mesh.add_node(Vec3(0.2, 1, 0)), d = mesh.add_node(Vec3(0.3, 0.2, 1));
+    mesh.add_tet({a, b, c, d});
+    CutEngine cutter(mesh);
+    const CutStepStats s = cutter.impose(0, e.topology, true);
+    CAPTURE(cutter.state_label_of(0));
+    CHECK(mesh.tet_count() == e.tets);
+    CHECK(cutter.subdivision_sizes() == std::vector<std::size_t>{e.tets});
+    CHECK(s.tets_created == e.tets);
+    CHECK(s.tets_removed == 1);
+    CHECK(connected_components(mesh).count() == e.parts);
+    require_valid(mesh, 1.0 / 6.0 * (Vec3(1, 0, 0).dot(Vec3(0.2, 1, 0).cross(Vec3(0.3, 0.2, 1)))));
+  }
 }
