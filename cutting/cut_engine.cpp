@@ -20,7 +20,15 @@ struct CutEngine::CutNode {
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // edge node: normal of the swept surface where it was cut
   std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> group_of;  // (coarse, sub) -> group
+  struct GroupEntry {
+    std::uint32_t coarse, sub, group;
+    friend bool operator<(const GroupEntry& a, const GroupEntry& b) {
+      return a.coarse != b.coarse ? a.coarse < b.coarse : a.sub < b.sub;
+    }
+  };
+  std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
+  // The group of sub-tetrahedron `sub` of coarse tetrahedron `coarse` (0 if not grouped).
+  [[nodiscard]] std::uint32_t group(std::uint32_t coarse, std::uint32_t sub) const;
 };
 
 struct CutEngine::CoarseTet {
@@ -383,26 +391,27 @@ std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
 void CutEngine::regroup(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
   const GNode g = kCutBit | id;
-  struct Item {
-    std::uint32_t coarse, sub;
-  };
-  std::vector<Item> items;
+  auto& items = scratch_.items;
+  items.clear();
   for (const std::uint32_t t : coarse_tets_around(n.key)) {
     const auto it = cut_tets_.find(t);
     if (it == cut_tets_.end()) continue;
     const auto& subs = it->second.subs;
     for (std::uint32_t s = 0; s < subs.size(); ++s)
-      if (contains(subs[s], g)) items.push_back({t, s});
+      if (contains(subs[s], g)) items.push_back({t, s, &subs[s]});
   }
-  std::vector<std::uint32_t> parent(items.size());
+  auto& parent = scratch_.parent;
+  parent.resize(items.size());
   std::iota(parent.begin(), parent.end(), 0u);
   auto find = [&](std::uint32_t i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  std::map<std::array<GNode, 3>, std::uint32_t> faces;
+  // Faces holding n that are not crack faces join the sub-tetrahedra on both sides of them.
+  auto& faces = scratch_.faces;
+  faces.clear();
   for (std::uint32_t i = 0; i < items.size(); ++i) {
-    const auto& tet = cut_tets_.at(items[i].coarse).subs[items[i].sub];
+    const auto& tet = *items[i].tet;
     for (int f = 0; f < 4; ++f) {
       if (tet[static_cast<size_t>(f)] == g) continue;  // the face opposite n does not hold n
       std::array<GNode, 3> face{};
@@ -411,25 +420,30 @@ void CutEngine::regroup(std::uint32_t id) {
         if (j != f) face[static_cast<size_t>(k++)] = tet[static_cast<size_t>(j)];
       if (is_crack_face(face[0], face[1], face[2])) continue;
       std::sort(face.begin(), face.end());
-      const auto [pos, inserted] = faces.emplace(face, i);
-      if (!inserted) parent[find(i)] = find(pos->second);
+      faces.push_back({face, i});
     }
   }
+  std::sort(faces.begin(), faces.end());
+  for (size_t k = 1; k < faces.size(); ++k)
+    if (faces[k].first == faces[k - 1].first) parent[find(faces[k].second)] = find(faces[k - 1].second);
+
   // Order groups by the smallest vertex (coarse corners sort before cut nodes) they contain.
-  std::map<std::uint32_t, GNode> smallest;
+  auto& smallest = scratch_.smallest;
+  smallest.assign(items.size(), ~GNode{0});
   for (std::uint32_t i = 0; i < items.size(); ++i) {
-    const auto& tet = cut_tets_.at(items[i].coarse).subs[items[i].sub];
     GNode lo = ~GNode{0};
-    for (const GNode v : tet)
+    for (const GNode v : *items[i].tet)
       if (v != g) lo = std::min(lo, v);
-    const std::uint32_t r = find(i);
-    const auto it = smallest.find(r);
-    if (it == smallest.end() || lo < it->second) smallest[r] = lo;
+    GNode& s = smallest[find(i)];
+    s = std::min(s, lo);
   }
-  std::vector<std::pair<GNode, std::uint32_t>> order;
-  for (const auto& [root, lo] : smallest) order.emplace_back(lo, root);
+  auto& order = scratch_.order;
+  order.clear();
+  for (std::uint32_t i = 0; i < items.size(); ++i)
+    if (find(i) == i) order.emplace_back(smallest[i], i);
   std::sort(order.begin(), order.end());
-  std::map<std::uint32_t, std::uint32_t> group_of_root;
+  auto& group_of_root = scratch_.group_of_root;
+  group_of_root.assign(items.size(), 0);
   for (std::uint32_t k = 0; k < order.size(); ++k) group_of_root[order[k].second] = k;
 
   while (n.copies.size() < order.size()) {
@@ -441,7 +455,13 @@ void CutEngine::regroup(std::uint32_t id) {
   }
   n.group_of.clear();
   for (std::uint32_t i = 0; i < items.size(); ++i)
-    n.group_of[{items[i].coarse, items[i].sub}] = group_of_root[find(i)];
+    n.group_of.push_back({items[i].coarse, items[i].sub, group_of_root[find(i)]});
+  std::sort(n.group_of.begin(), n.group_of.end());
+}
+
+std::uint32_t CutEngine::CutNode::group(std::uint32_t coarse, std::uint32_t sub) const {
+  const auto it = std::lower_bound(group_of.begin(), group_of.end(), GroupEntry{coarse, sub, 0});
+  return it != group_of.end() && it->coarse == coarse && it->sub == sub ? it->group : 0;
 }
 
 // Brings the live sub-tetrahedra of one coarse tetrahedron in line with its subdivision and the
@@ -456,23 +476,23 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
         real[s][static_cast<size_t>(i)] = mesh_.node_handle(static_cast<std::uint32_t>(g));
       } else {
         const CutNode& n = cut_nodes_[static_cast<size_t>(g & ~kCutBit)];
-        const auto it = n.group_of.find({t, s});
-        real[s][static_cast<size_t>(i)] = n.copies[it == n.group_of.end() ? 0 : it->second];
+        real[s][static_cast<size_t>(i)] = n.copies[n.group(t, s)];
       }
     }
-  // Match old live elements to new ones by their real nodes.
-  std::map<std::array<NodeId, 4>, std::vector<std::size_t>> old_by_nodes;
-  for (std::size_t i = 0; i < c.real.size(); ++i) old_by_nodes[c.real[i]].push_back(i);
+  // Match old live elements to new ones by their real nodes (each old one used once).
+  std::vector<std::pair<std::array<NodeId, 4>, std::size_t>> old_by_nodes(c.real.size());
+  for (std::size_t i = 0; i < c.real.size(); ++i) old_by_nodes[i] = {c.real[i], i};
+  std::sort(old_by_nodes.begin(), old_by_nodes.end());
   std::vector<TetId> live(real.size());
   std::vector<bool> kept(c.live.size(), false);
   std::vector<std::size_t> to_add;
   for (std::size_t s = 0; s < real.size(); ++s) {
-    auto it = old_by_nodes.find(real[s]);
-    if (it != old_by_nodes.end() && !it->second.empty()) {
-      const std::size_t i = it->second.back();
-      it->second.pop_back();
-      kept[i] = true;
-      live[s] = c.live[i];
+    auto it =
+        std::lower_bound(old_by_nodes.begin(), old_by_nodes.end(), std::make_pair(real[s], std::size_t{0}));
+    while (it != old_by_nodes.end() && it->first == real[s] && kept[it->second]) ++it;
+    if (it != old_by_nodes.end() && it->first == real[s]) {
+      kept[it->second] = true;
+      live[s] = c.live[it->second];
     } else {
       to_add.push_back(s);
     }
@@ -499,7 +519,10 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
 
 // Subdivides the affected coarse tetrahedra again, records their transitions, opens the crack
 // where the cut surface now surrounds a node, and updates the live mesh.
-void CutEngine::commit(const std::set<std::uint32_t>& affected, CutStepStats& stats) {
+void CutEngine::commit(const std::set<std::uint32_t>& affected,
+                       const std::set<std::uint32_t>& left_faces_tets, CutStepStats& stats) {
+  std::set<std::uint32_t> completion_candidates = affected;
+  completion_candidates.insert(left_faces_tets.begin(), left_faces_tets.end());
   // Subdivide the affected tetrahedra again and record their transitions.
   std::set<std::uint32_t> regroup_ids;
   for (const std::uint32_t t : affected) {
@@ -526,7 +549,11 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected, CutStepStats& st
     }
   }
   // Completion: a cut tetrahedron none of whose faces the blade crosses any more is in an end state.
-  for (auto& [t, c] : cut_tets_) {
+  // Only tetrahedra whose state changed or whose faces the blade left can have completed.
+  for (const std::uint32_t t : completion_candidates) {
+    const auto it = cut_tets_.find(t);
+    if (it == cut_tets_.end()) continue;
+    CoarseTet& c = it->second;
     bool crossed = false;
     for (int f = 0; f < 4 && !crossed; ++f) {
       const auto fv = face_vertex_indices(coarse_, t, f);
@@ -648,13 +675,16 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     ++n.samples;
     positioned_faces.insert(k);
   }
-  for (auto& [k, id] : mid_nodes_) {
-    CutNode& n = cut_nodes_[id];
-    if (n.crossing && !crossing_now.count(k)) {
-      n.crossing = false;  // the blade left the face: settle at the averaged trajectory (§5.2)
-      positioned_faces.insert(k);
-    }
+  std::set<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
+  for (const Key3& k : crossing_faces_) {
+    if (crossing_now.count(k)) continue;
+    cut_nodes_[mid_nodes_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
+    positioned_faces.insert(k);
+    for (const std::uint32_t t : coarse_tets_around(k)) left_faces_tets.insert(t);
   }
+  crossing_faces_.clear();
+  for (const Key3& k : crossing_now)
+    if (cut_nodes_[mid_nodes_.at(k)].crossing) crossing_faces_.insert(k);
 
   // Every face around a new cut edge carries the trace of the swept surface through it.
   for (const Key3& k : new_edges) {
@@ -679,7 +709,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const Key3& k : changed_faces)
     for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
 
-  commit(affected, stats);
+  commit(affected, left_faces_tets, stats);
   stats.nodes_created = mesh_.node_count() - nodes_before;
   totals_.add(stats);
 
@@ -740,6 +770,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
       n.samples = 1;
     }
     n.crossing = !complete;
+    if (n.crossing) crossing_faces_.insert(k);
     update_face_position(id);
   }
   for (const Key3& k : faces)
@@ -747,7 +778,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   for (const auto& [k, id] : entry_nodes_)
     for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
   affected.insert(t);
-  commit(affected, stats);
+  commit(affected, {}, stats);
   stats.nodes_created = mesh_.node_count() - nodes_before;
   totals_.add(stats);
   return stats;

@@ -149,7 +149,8 @@ class CutEngine {
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
   void regroup(std::uint32_t cut_id);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
-  void commit(const std::set<std::uint32_t>& affected, CutStepStats& stats);
+  void commit(const std::set<std::uint32_t>& affected, const std::set<std::uint32_t>& left_faces_tets,
+              CutStepStats& stats);
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   bool is_crack_face(GNode a, GNode b, GNode c) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
@@ -170,8 +171,21 @@ class CutEngine {
   std::map<std::array<std::uint32_t, 3>, std::uint32_t> mid_nodes_;    // key: sorted face slots
   std::map<std::array<std::uint32_t, 3>, std::uint32_t> entry_nodes_;  // key: sorted face slots
   std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
+  std::set<std::array<std::uint32_t, 3>> crossing_faces_;              // faces the blade crosses now
   std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
   CutChanges changes_;
+  // Scratch buffers of regroup(), kept to avoid allocating on every step.
+  struct RegroupItem {
+    std::uint32_t coarse, sub;
+    const std::array<GNode, 4>* tet;
+  };
+  struct {
+    std::vector<RegroupItem> items;
+    std::vector<std::uint32_t> parent, group_of_root;
+    std::vector<std::pair<std::array<GNode, 3>, std::uint32_t>> faces;
+    std::vector<GNode> smallest;
+    std::vector<std::pair<GNode, std::uint32_t>> order;
+  } scratch_;
   CutTotals totals_;
 };
 
