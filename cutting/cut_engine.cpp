@@ -143,7 +143,8 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
       coarse_(mesh),
       coarse_nodes_(mesh.node_capacity()),
       options_(options),
-      table_(options.table ? *options.table : default_cut_table()) {
+      table_(options.table ? *options.table : default_cut_table()),
+      coarse_volume_(mesh.total_rest_volume()) {
   sweep_ = std::make_unique<BladeSweep>(coarse_);
   live_to_coarse_.resize(mesh.tet_capacity());
   std::iota(live_to_coarse_.begin(), live_to_coarse_.end(), 0u);
@@ -214,6 +215,7 @@ void CutEngine::place_cut_node(std::uint32_t id) {
     mesh_.set_rest(c, r);
     mesh_.set_position(c, x);
     changes_.moved_nodes.push_back(c);
+    changes_.touched_nodes.push_back(c.index);
   }
 }
 
@@ -502,12 +504,14 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
   for (std::size_t i = 0; i < c.live.size(); ++i) {
     if (kept[i]) continue;
     changes_.removed_tets.push_back(c.live[i].index);
+    for (const NodeId n : c.real[i]) changes_.touched_nodes.push_back(n.index);
     mesh_.remove_tet(c.live[i]);
     ++stats.tets_removed;
   }
   for (const std::size_t s : to_add) {
     live[s] = mesh_.add_tet(real[s], region);
     changes_.added_tets.push_back(live[s]);
+    for (const NodeId n : real[s]) changes_.touched_nodes.push_back(n.index);
     mesh_.set_parent(live[s], parent);
     if (live_to_coarse_.size() <= live[s].index) live_to_coarse_.resize(live[s].index + 1, kInvalidIndex);
     live_to_coarse_[live[s].index] = t;
@@ -714,7 +718,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   totals_.add(stats);
 
 #ifdef SCALPEL_VALIDATE
-  const auto report = validate(mesh_);
+  // Invariants 1-4 wherever this step changed the mesh (DESIGN section 5).
+  const auto report = validate_local(mesh_, changes_.touched_nodes, {.reference_volume = coarse_volume_});
   if (!report.ok())
     throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
 #endif

@@ -61,7 +61,9 @@ struct CutChanges {
   std::vector<NodeId> added_nodes;
   std::vector<NodeParents> added_node_parents;  // weights over existing nodes, one per added node
   std::vector<NodeId> moved_nodes;              // rest and current position changed (sliding mid nodes)
+  std::vector<std::uint32_t> touched_nodes;     // node slots of removed, added and moved elements
   void clear() {
+    touched_nodes.clear();
     removed_tets.clear();
     added_tets.clear();
     added_nodes.clear();
@@ -161,6 +163,7 @@ class CutEngine {
   std::size_t coarse_nodes_;
   CutOptions options_;
   const CutTable& table_;
+  double coarse_volume_;  // [m^3] rest volume of the coarse mesh: every step keeps it (invariant 4)
   std::unique_ptr<BladeSweep> sweep_;
   SweepResult sweep_result_;
   BladePose blade_{};

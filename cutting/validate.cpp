@@ -213,4 +213,113 @@ ValidationReport validate(const TetMesh& m, const ValidationOptions& options) {
   return report;
 }
 
+ValidationReport validate_local(const TetMesh& m, std::span<const std::uint32_t> nodes,
+                                const ValidationOptions& options) {
+  ValidationReport report;
+  Collector c{report, options};
+  const auto& r = m.rest_positions();
+  const auto& x = m.positions();
+  // Two rings of tetrahedra around the nodes: a node of the change may hang on a face of an element
+  // that only shares the face's vertices with the change.
+  auto star = [&](const std::vector<std::uint32_t>& around) {
+    std::vector<std::uint32_t> out;
+    for (const std::uint32_t n : around)
+      if (m.node_slot_alive(n))
+        for (const std::uint32_t t : m.node_tets(m.node_handle(n))) out.push_back(t);
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  };
+  std::vector<std::uint32_t> ring_nodes;
+  for (const std::uint32_t t : star({nodes.begin(), nodes.end()}))
+    for (const std::uint32_t n : m.tet_vertex_indices(t)) ring_nodes.push_back(n);
+  const std::vector<std::uint32_t> tets = star(ring_nodes);
+
+  auto holds = [&](std::uint32_t t, std::uint32_t n) {
+    const auto& v = m.tet_vertex_indices(t);
+    return std::find(v.begin(), v.end(), n) != v.end();
+  };
+  // The local faces of tets around node a that have no neighbour: (tet, face).
+  auto boundary_edge_count = [&](std::uint32_t u, std::uint32_t v) {
+    int count = 0;
+    for (const std::uint32_t t : m.node_tets(m.node_handle(u)))
+      for (int f = 0; f < 4; ++f) {
+        if (!m.neighbour(m.tet_handle(t), f).is_null()) continue;
+        const auto fv = face_vertex_indices(m, t, f);
+        for (int e = 0; e < 3; ++e)
+          count += fv[static_cast<size_t>(e)] == u && fv[static_cast<size_t>((e + 1) % 3)] == v ? 1 : 0;
+      }
+    return count;
+  };
+
+  std::vector<BoundaryFace> boundary;
+  for (const std::uint32_t t : tets) {
+    const auto& v = m.tet_vertex_indices(t);
+    // 1. Oriented.
+    if (orient3d(r[v[0]], r[v[1]], r[v[2]], r[v[3]]) <= 0)
+      c.add(Invariant::Oriented, t, tet_text(m, t) + " has non-positive rest volume");
+    if (options.check_current && orient3d(x[v[0]], x[v[1]], x[v[2]], x[v[3]]) <= 0)
+      c.add(Invariant::Oriented, t, tet_text(m, t) + " has non-positive current volume");
+    const TetId th = m.tet_handle(t);
+    for (int f = 0; f < 4; ++f) {
+      // 2. Conforming: the other tetrahedra on this face.
+      const auto fv = face_vertex_indices(m, t, f);
+      std::vector<std::uint32_t> others;
+      for (const std::uint32_t u : m.node_tets(m.node_handle(fv[0])))
+        if (u != t && holds(u, fv[1]) && holds(u, fv[2])) others.push_back(u);
+      const TetId linked = m.neighbour(th, f);
+      if (others.size() > 1) {
+        c.add(Invariant::Conforming, t,
+              tet_text(m, t) + " shares a face with " + std::to_string(others.size()) + " others");
+      } else if (others.size() == 1) {
+        if (linked.index != others[0])
+          c.add(Invariant::Conforming, t,
+                tet_text(m, t) + " is not linked to its face neighbour " + tet_text(m, others[0]));
+        const int g = m.neighbour_face(th, f);
+        if (g >= 0) {
+          const auto q = face_vertex_indices(m, others[0], g);
+          bool reversed = false;
+          for (int s0 = 0; s0 < 3; ++s0)
+            reversed |= q[0] == fv[static_cast<size_t>(s0)] &&
+                        q[1] == fv[static_cast<size_t>((s0 + 2) % 3)] &&
+                        q[2] == fv[static_cast<size_t>((s0 + 1) % 3)];
+          if (!reversed)
+            c.add(Invariant::Conforming, t,
+                  tet_text(m, t) + " and " + tet_text(m, others[0]) +
+                      " share a face with the same orientation");
+        }
+      } else {
+        if (!linked.is_null())
+          c.add(Invariant::Conforming, t,
+                tet_text(m, t) + " is linked across a face no other tetrahedron has");
+        boundary.push_back({t, f, fv});
+        // 3. Watertight: every directed edge of this boundary face is matched around its nodes.
+        for (int e = 0; e < 3; ++e) {
+          const std::uint32_t u = fv[static_cast<size_t>(e)], w = fv[static_cast<size_t>((e + 1) % 3)];
+          const int forward = boundary_edge_count(u, w), backward = boundary_edge_count(w, u);
+          if (forward != backward)
+            c.add(Invariant::Watertight, u,
+                  "boundary edge " + std::to_string(u) + "->" + std::to_string(w) + " appears " +
+                      std::to_string(forward) + " times but " + std::to_string(w) + "->" + std::to_string(u) +
+                      " " + std::to_string(backward) + " times");
+        }
+      }
+    }
+  }
+  check_hanging_nodes(m, boundary, c);
+
+  // 4. Volume.
+  if (options.reference_volume) {
+    const double v0 = *options.reference_volume, v = m.total_rest_volume();
+    const double tol = 1e-12 * std::max<double>(1.0, static_cast<double>(m.tet_count())) * std::abs(v0);
+    if (!(std::abs(v - v0) <= tol)) {
+      std::ostringstream s;
+      s.precision(17);
+      s << "total rest volume " << v << " differs from the original " << v0 << " by " << std::abs(v - v0);
+      c.add(Invariant::Volume, kInvalidIndex, s.str());
+    }
+  }
+  return report;
+}
+
 }  // namespace scalpel

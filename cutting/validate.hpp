@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,13 @@ struct ValidationReport {
 };
 
 [[nodiscard]] ValidationReport validate(const TetMesh& mesh, const ValidationOptions& options = {});
+
+// Invariants 1-3 in the neighbourhood of `nodes` (every tetrahedron holding one of them), and
+// invariant 4 globally. After a local mutation of a mesh that was valid, passing the nodes of the
+// removed and added tetrahedra checks everything the mutation can have broken, at a cost that does
+// not grow with the mesh (but for the volume sum).
+[[nodiscard]] ValidationReport validate_local(const TetMesh& mesh, std::span<const std::uint32_t> nodes,
+                                              const ValidationOptions& options = {});
 
 [[nodiscard]] const char* invariant_name(Invariant i);
 

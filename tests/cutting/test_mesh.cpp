@@ -119,3 +119,48 @@ TEST_CASE("validate names the broken invariant and element") {
     CHECK(r.passed[3]);
   }
 }
+
+TEST_CASE("validate_local checks the neighbourhood of a change") {
+  SUBCASE("a valid local change passes") {
+    TetMesh m = make_box({.cells = {3, 3, 3}});
+    const TetId t = m.tets()[40];
+    const auto n = m.tet_nodes(t);
+    // Split the tetrahedron at its centroid into four.
+    const NodeId c = m.add_node((m.rest(n[0]) + m.rest(n[1]) + m.rest(n[2]) + m.rest(n[3])) / 4);
+    m.remove_tet(t);
+    for (int f = 0; f < 4; ++f) {
+      auto v = n;
+      v[static_cast<size_t>(f)] = c;
+      m.add_tet(v);
+    }
+    const std::vector<std::uint32_t> touched{n[0].index, n[1].index, n[2].index, n[3].index, c.index};
+    const auto r = validate_local(m, touched, {.reference_volume = 1.0});
+    CHECK_MESSAGE(r.ok(), r.summary());
+  }
+  SUBCASE("a hanging node next to the change is found") {
+    TetMesh m;
+    const NodeId a = m.add_node(Vec3(0, 0, 0)), b = m.add_node(Vec3(1, 0, 0)), c = m.add_node(Vec3(0, 1, 0)),
+                 top = m.add_node(Vec3(0, 0, 1)), bottom = m.add_node(Vec3(0.2, 0.2, -1));
+    m.add_tet({a, b, c, top});
+    const NodeId mid = m.add_node(Vec3(1.0 / 3, 1.0 / 3, 0));
+    m.add_tet({a, mid, b, bottom});
+    m.add_tet({b, mid, c, bottom});
+    m.add_tet({c, mid, a, bottom});
+    const std::vector<std::uint32_t> touched{mid.index, bottom.index};
+    const auto r = validate_local(m, touched);
+    CHECK_FALSE(r.passed[2]);
+  }
+  SUBCASE("an inverted element and an open surface are found") {
+    TetMesh m = make_box({.cells = {2, 2, 2}});
+    const TetId t = m.tets()[5];
+    auto n = m.tet_nodes(t);
+    m.remove_tet(t);
+    std::swap(n[0], n[1]);
+    m.add_tet(n);
+    const std::vector<std::uint32_t> touched{n[0].index};
+    const auto r = validate_local(m, touched, {.reference_volume = 1.0});
+    CHECK_FALSE(r.passed[1]);
+    CHECK_FALSE(r.passed[2]);  // the flipped element's faces no longer match their neighbours
+    CHECK_FALSE(r.passed[4]);
+  }
+}
