@@ -44,6 +44,7 @@ void CutTotals::add(const CutStepStats& s) {
   edges_cut += s.edges_cut;
   backward_crossings += s.backward_crossings;
   recrossed_edges += s.recrossed_edges;
+  recrossed_faces += s.recrossed_faces;
   face_pierces += s.face_pierces;
   tets_created += s.tets_created;
   tets_removed += s.tets_removed;
@@ -651,6 +652,11 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const auto& p : sweep_result_.pierces) {
     const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
     if (entry_nodes_.count(k)) continue;
+    const std::uint32_t mid = face_node(mid_nodes_, k);
+    if (mid != kInvalidIndex && cut_nodes_[mid].copies.size() > 1) {
+      ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
+      continue;
+    }
     const Vec3 w = clamp_interior(face_bary(k, p.point), options_.min_face_bary);
     entry_nodes_.emplace(k, new_cut_node(CutNode::Kind::Entry, k, w));
     changed_faces.insert(k);
@@ -672,7 +678,10 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       changed_faces.insert(k);
     }
     CutNode& n = cut_nodes_[id];
-    if (n.copies.size() > 1) continue;  // already cut through; a second pass is the recursive case
+    if (n.copies.size() > 1) {  // already cut through; a second pass is the recursive case (§6)
+      ++stats.recrossed_faces;
+      continue;
+    }
     n.crossing = true;
     n.bary = w;
     n.sample_sum += sample;

@@ -77,6 +77,7 @@ struct CutStepStats {
   std::size_t edges_cut = 0;           // forward crossings that split an edge
   std::size_t backward_crossings = 0;  // crossings by the blunt side (Eq. 1): registered, not cut
   std::size_t recrossed_edges = 0;     // crossings of an edge already cut (recursive case, §6)
+  std::size_t recrossed_faces = 0;     // pierces or crossings of a face already cut through (§6)
   std::size_t face_pierces = 0;        // entry nodes created
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
@@ -87,7 +88,8 @@ struct CutStepStats {
 
 struct CutTotals {
   std::size_t steps = 0;
-  std::size_t edges_cut = 0, backward_crossings = 0, recrossed_edges = 0, face_pierces = 0;
+  std::size_t edges_cut = 0, backward_crossings = 0, recrossed_edges = 0, recrossed_faces = 0,
+              face_pierces = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
   std::map<std::string, std::size_t> transitions;  // "A0->B0": count

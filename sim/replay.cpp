@@ -225,6 +225,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   report["cutting"] = {{"edges_cut", totals.edges_cut},
                        {"backward_crossings", totals.backward_crossings},
                        {"recrossed_edges", totals.recrossed_edges},
+                       {"recrossed_faces", totals.recrossed_faces},
                        {"face_pierces", totals.face_pierces},
                        {"tetrahedra_created", totals.tets_created},
                        {"tetrahedra_removed", totals.tets_removed},

@@ -1,0 +1,118 @@
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+
+#include "cutting/topology.hpp"
+#include "cutting/validate.hpp"
+#include "sim/scenario.hpp"
+#include "sim/simulation.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+// A small prestressed skin patch, 20 x 20 mm, held at its base and rim.
+const char* kScenario = R"(
+name: random_cuts
+mesh:
+  generator: slab
+  size: [0.020, 0.020]
+  cells: [5, 5]
+  layers:
+    - {name: epidermis, thickness: 0.001, cells: 1}
+    - {name: dermis, thickness: 0.002, cells: 1}
+    - {name: fat, thickness: 0.004, cells: 1}
+materials:
+  epidermis: {young: 1.0e6, poisson: 0.45, density: 1100, prestress: 1.15}
+  dermis: {young: 1.0e5, poisson: 0.45, density: 1100, prestress: 1.15}
+  fat: {young: 1.0e4, poisson: 0.45, density: 920}
+tissue:
+  model: MODEL
+  rate: 60
+  solver: {tolerance: 1.0e-3, max_iterations: 200}
+fixed:
+  - {side: bottom}
+  - {side: x_min}
+  - {side: x_max}
+  - {side: y_min}
+  - {side: y_max}
+tool:
+  blade: {back: [0, 0, 0.006], tip: [0, 0, 0]}
+)";
+
+Scenario scenario(const std::string& model) {
+  std::string text = kScenario;
+  text.replace(text.find("MODEL"), 5, model);
+  return parse_scenario(text, "random_cuts.yaml", ".");
+}
+
+}  // namespace
+
+TEST_CASE("tissue under a thousand random cuts: energy bounded, no NaN, invariants hold") {
+  for (const std::string model : {"corotational", "mass_spring"}) {
+    CAPTURE(model);
+    Simulation sim(scenario(model));
+    ForceChannel forces;
+    std::mt19937 rng(20261121);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    // Settle the prestressed patch, then take its energy as the scale.
+    double t = 0;
+    ToolSample s;
+    s.position = Vec3(0, 0, 0.02);
+    sim.on_sample(s);
+    for (int k = 0; k < 30; ++k) sim.end_frame(t += 1.0 / 60, forces);
+    const double settled = sim.tissue_steps().back().elastic_energy;
+    REQUIRE(std::isfinite(settled));
+
+    // Trajectories: enter from above at a random spot, wander with a random heading, random tilt
+    // and tremble, then leave; a frame every 16 samples, as the replay does.
+    std::size_t samples = 0, edits = 0;
+    double peak = 0;
+    int trajectories = 0;
+    while (edits < 1000 && trajectories < 400) {
+      ++trajectories;
+      Vec3 p(-0.008 + 0.016 * unit(rng), -0.008 + 0.016 * unit(rng), 0.004);
+      double heading = 6.2832 * unit(rng);
+      const double depth = 0.0005 + 0.004 * unit(rng);
+      const double tilt = 0.6 * (unit(rng) - 0.5);
+      const int length = 200 + static_cast<int>(400 * unit(rng));
+      for (int k = 0; k < length; ++k) {
+        const double phase = static_cast<double>(k) / length;
+        const double target_z = phase < 0.15 || phase > 0.85 ? 0.004 : -depth;
+        p.z() += std::clamp(target_z - p.z(), -4e-5, 4e-5);
+        heading += 0.2 * (unit(rng) - 0.5);
+        p += 2e-5 * Vec3(std::cos(heading), std::sin(heading), 0) +
+             5e-6 * Vec3(unit(rng) - 0.5, unit(rng) - 0.5, 0);
+        p.x() = std::clamp(p.x(), -0.0095, 0.0095);
+        p.y() = std::clamp(p.y(), -0.0095, 0.0095);
+        s.t += 0.001;
+        s.position = p;
+        s.orientation =
+            Eigen::Quaterniond(Eigen::AngleAxisd(tilt, Vec3(std::sin(heading), -std::cos(heading), 0)));
+        const std::size_t created = sim.cutter().totals().tets_created;
+        sim.on_sample(s);
+        edits += sim.cutter().totals().tets_created > created ? 1 : 0;  // a topology edit
+        if (++samples % 16 == 0) {
+          sim.end_frame(t += 1.0 / 60, forces);
+          const StepStats& st = sim.tissue_steps().back();
+          REQUIRE_MESSAGE(st.status != StepStatus::NonFinite, st.message);
+          REQUIRE(std::isfinite(st.elastic_energy));
+          REQUIRE(std::isfinite(st.kinetic_energy));
+          peak = std::max(peak, st.elastic_energy + st.kinetic_energy);
+          // Bounded: cuts release prestress, and re-meshing may not pump energy in without limit.
+          REQUIRE(st.elastic_energy + st.kinetic_energy <= 2.0 * settled);
+        }
+      }
+    }
+    MESSAGE(model << ": " << trajectories << " trajectories, " << samples << " samples, " << edits
+                  << " topology edits, peak energy " << peak / settled << " x settled, "
+                  << sim.cutter().totals().edges_cut << " edges cut, " << sim.tissue_steps().size()
+                  << " tissue steps, " << sim.mesh().tet_count() << " tetrahedra, "
+                  << connected_components(sim.mesh()).count() << " components");
+    CHECK(edits >= 1000);
+    const auto r = validate(sim.mesh(), {.reference_volume = sim.initial_volume()});
+    CHECK_MESSAGE(r.ok(), r.summary());
+    for (const NodeId n : sim.mesh().nodes()) REQUIRE(sim.mesh().position(n).allFinite());
+  }
+}
