@@ -10,7 +10,7 @@
 namespace scalpel {
 
 struct CutEngine::CutNode {
-  enum class Kind : std::uint8_t { Edge, Mid, Entry };
+  using Kind = CutNodeKind;
   Kind kind = Kind::Edge;
   std::array<std::uint32_t, 3> key{};  // sorted coarse node slots; an edge has key[2] = kInvalidIndex
   Vec3 bary = Vec3::Zero();            // weights of the key nodes
@@ -602,19 +602,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   const std::size_t nodes_before = mesh_.node_count();
 
   auto new_cut_node = [&](CutNode::Kind kind, const Key3& key, const Vec3& bary) {
-    CutNode n;
-    n.kind = kind;
-    n.key = key;
-    n.bary = bary;
-    NodeParents p;
-    p.count = kind == CutNode::Kind::Edge ? 2 : 3;
-    for (int i = 0; i < p.count; ++i) {
-      p.parents[static_cast<size_t>(i)] = mesh_.node_handle(key[static_cast<size_t>(i)]);
-      p.weights[static_cast<size_t>(i)] = bary[i];
-    }
-    n.copies.push_back(add_node(p));
-    cut_nodes_.push_back(std::move(n));
-    return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
+    return create_cut_node(kind, key, bary);
   };
   auto face_bary = [&](const Key3& k, const Vec3& point) {
     const auto& x = coarse_.positions();
@@ -742,21 +730,9 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   const auto& v = coarse_.tet_vertex_indices(t);
   std::set<Key3> faces;
   auto make = [&](std::map<Key3, std::uint32_t>& map, CutNode::Kind kind, const Key3& k, const Vec3& w) {
-    if (map.count(k)) return map.at(k);
-    CutNode n;
-    n.kind = kind;
-    n.key = k;
-    n.bary = w;
-    NodeParents p;
-    p.count = kind == CutNode::Kind::Edge ? 2 : 3;
-    for (int i = 0; i < p.count; ++i) {
-      p.parents[static_cast<size_t>(i)] = mesh_.node_handle(k[static_cast<size_t>(i)]);
-      p.weights[static_cast<size_t>(i)] = w[i];
-    }
-    n.copies.push_back(add_node(p));
-    cut_nodes_.push_back(std::move(n));
-    map.emplace(k, static_cast<std::uint32_t>(cut_nodes_.size() - 1));
-    return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
+    const auto [it, fresh] = map.try_emplace(k, 0u);
+    if (fresh) it->second = create_cut_node(kind, k, w);
+    return it->second;
   };
   for (int e = 0; e < 6; ++e) {
     if (!(local.edges & (1u << e))) continue;
@@ -796,6 +772,23 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   stats.nodes_created = mesh_.node_count() - nodes_before;
   totals_.add(stats);
   return stats;
+}
+
+// A new cut node with one real copy, interpolated from its coarse nodes with weights `bary`.
+std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, const Vec3& bary) {
+  CutNode n;
+  n.kind = kind;
+  n.key = key;
+  n.bary = bary;
+  NodeParents p;
+  p.count = kind == CutNode::Kind::Edge ? 2 : 3;
+  for (int i = 0; i < p.count; ++i) {
+    p.parents[static_cast<size_t>(i)] = mesh_.node_handle(key[static_cast<size_t>(i)]);
+    p.weights[static_cast<size_t>(i)] = bary[i];
+  }
+  n.copies.push_back(add_node(p));
+  cut_nodes_.push_back(std::move(n));
+  return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
 }
 
 NodeId CutEngine::add_node(const NodeParents& parents) {

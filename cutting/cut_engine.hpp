@@ -138,6 +138,7 @@ class CutEngine {
   [[nodiscard]] double cut_surface_area() const;
 
  private:
+  enum class CutNodeKind : std::uint8_t { Edge, Mid, Entry };
   struct CutNode;
   struct CoarseTet;
   using GNode = std::uint64_t;  // corner: node slot; cut node: kCutBit | cut node index
@@ -148,6 +149,7 @@ class CutEngine {
                           const std::array<std::uint32_t, 3>& key) const;
   void place_cut_node(std::uint32_t id);
   NodeId add_node(const NodeParents& parents);
+  std::uint32_t create_cut_node(CutNodeKind kind, const std::array<std::uint32_t, 3>& key, const Vec3& bary);
   void update_face_position(std::uint32_t id);
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
