@@ -24,12 +24,11 @@ ScenarioMesh load_scenario_mesh(const Scenario& scenario) {
 Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   ScenarioMesh m = load_scenario_mesh(scenario_);
   mesh_ = std::move(m.mesh);
-  regions_ = std::move(m.regions);
   initial_volume_ = mesh_.total_rest_volume();
   cutter_ = std::make_unique<CutEngine>(mesh_);
 
   // Tissue (DESIGN section 6): materials by region id, the scenario's solver, the fixed boundary.
-  const std::map<int, Material> by_region = resolve_materials(scenario_, regions_, mesh_);
+  const std::map<int, Material> by_region = resolve_materials(scenario_, m.regions, mesh_);
   std::vector<Material> materials(by_region.empty() ? 1 : static_cast<size_t>(by_region.rbegin()->first) + 1);
   for (const auto& [region, material] : by_region) materials[static_cast<size_t>(region)] = material;
   TissueSettings settings;

@@ -25,10 +25,6 @@ struct ScenarioMesh {
 };
 [[nodiscard]] ScenarioMesh load_scenario_mesh(const Scenario& scenario);
 
-struct SampleTiming {
-  double cut_seconds = 0.0;  // wall-clock time of the cut step of one sample
-};
-
 class Simulation {
  public:
   explicit Simulation(const Scenario& scenario);
@@ -63,7 +59,6 @@ class Simulation {
  private:
   Scenario scenario_;
   TetMesh mesh_;
-  RegionIds regions_;
   double initial_volume_ = 0.0;
   std::unique_ptr<CutEngine> cutter_;
   std::unique_ptr<TissueModel> tissue_;
