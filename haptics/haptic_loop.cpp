@@ -15,13 +15,6 @@ namespace scalpel {
 
 namespace {
 
-// A hint to the core that this is a spin-wait loop.
-inline void cpu_relax() {
-#if defined(__x86_64__) || defined(__i386__)
-  __builtin_ia32_pause();
-#endif
-}
-
 constexpr auto kRelaxed = std::memory_order_relaxed;
 
 ForceLimits limits_for(const Device& d, const HapticLoopConfig& c) {
@@ -182,7 +175,6 @@ void HapticLoop::maintain_main() {
 void HapticLoop::thread_main() noexcept {
   const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / config_.rate));
   const double nominal = 1.0 / config_.rate;
-  const auto spin_ns = static_cast<std::int64_t>(std::llround(config_.spin * 1e9));
   const std::int64_t start = now_ns();
   std::int64_t deadline = start;
   std::int64_t last_wake = start;
@@ -215,12 +207,9 @@ void HapticLoop::thread_main() noexcept {
       counters_.overruns.fetch_add(1, kRelaxed);
       deadline = after;
     }
-    // Sleep to shortly before the deadline, then spin to it: the timer's wake-up latency, not the
-    // loop, would otherwise set the period jitter.
-    const timespec ts = from_ns(deadline - spin_ns);
+    const timespec ts = from_ns(deadline);
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
     }
-    while (now_ns() < deadline) cpu_relax();
   }
 }
 

@@ -48,7 +48,6 @@ struct HapticLoopConfig {
   int priority = 80;               // SCHED_FIFO priority
   std::size_t period_log = 0;      // measured periods kept for percentiles (real clock; 0: none)
   double maintain_interval = 0.1;  // [s] between calls of the device's maintain()
-  double spin = 100e-6;            // [s] busy-wait before each deadline (real clock), 0: sleep only
 };
 
 struct HapticStats {
