@@ -20,12 +20,7 @@ struct CutEngine::CutNode {
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // edge node: normal of the swept surface where it was cut
   std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
-  struct GroupEntry {
-    std::uint32_t coarse, sub, group;
-    friend bool operator<(const GroupEntry& a, const GroupEntry& b) {
-      return a.coarse != b.coarse ? a.coarse < b.coarse : a.sub < b.sub;
-    }
-  };
+  using GroupEntry = CutNodeGroup;
   std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
   // The group of sub-tetrahedron `sub` of coarse tetrahedron `coarse` (0 if not grouped).
   [[nodiscard]] std::uint32_t group(std::uint32_t coarse, std::uint32_t sub) const;
@@ -147,6 +142,7 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
       table_(options.table ? *options.table : default_cut_table()),
       coarse_volume_(mesh.total_rest_volume()) {
   sweep_ = std::make_unique<BladeSweep>(coarse_);
+  (void)canonicalize({});  // builds the canonical-state table now, not in the first cut step
   live_to_coarse_.resize(mesh.tet_capacity());
   std::iota(live_to_coarse_.begin(), live_to_coarse_.end(), 0u);
 }
@@ -391,7 +387,7 @@ std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
 // Groups the sub-tetrahedra around a cut node by face adjacency that does not cross the crack;
 // group g uses copies[g]. Groups are ordered by the smallest coarse vertex they hold, which the
 // cut never changes, so a side keeps its real node from step to step.
-void CutEngine::regroup(std::uint32_t id) {
+void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   CutNode& n = cut_nodes_[id];
   const GNode g = kCutBit | id;
   auto& items = scratch_.items;
@@ -456,10 +452,15 @@ void CutEngine::regroup(std::uint32_t id) {
     p.count = 1;
     n.copies.push_back(add_node(p));
   }
-  n.group_of.clear();
+  // Coarse tetrahedra whose sub-tetrahedra changed group must be rebuilt.
+  auto& fresh = scratch_.group_of;
+  fresh.clear();
   for (std::uint32_t i = 0; i < items.size(); ++i)
-    n.group_of.push_back({items[i].coarse, items[i].sub, group_of_root[find(i)]});
-  std::sort(n.group_of.begin(), n.group_of.end());
+    fresh.push_back({items[i].coarse, items[i].sub, group_of_root[find(i)]});
+  std::sort(fresh.begin(), fresh.end());
+  for (const auto& e : fresh)
+    if (n.group(e.coarse, e.sub) != e.group) changed.push_back(e.coarse);
+  n.group_of.swap(fresh);
 }
 
 std::uint32_t CutEngine::CutNode::group(std::uint32_t coarse, std::uint32_t sub) const {
@@ -575,11 +576,9 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
 
   // Open the crack where the cut surface now surrounds a node.
   std::set<std::uint32_t> rebuild = affected;
-  for (const std::uint32_t id : regroup_ids) {
-    regroup(id);
-    for (const std::uint32_t t : coarse_tets_around(cut_nodes_[id].key))
-      if (cut_tets_.count(t)) rebuild.insert(t);
-  }
+  std::vector<std::uint32_t> regrouped;
+  for (const std::uint32_t id : regroup_ids) regroup(id, regrouped);
+  rebuild.insert(regrouped.begin(), regrouped.end());
   for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
 }
 

@@ -139,6 +139,13 @@ class CutEngine {
 
  private:
   enum class CutNodeKind : std::uint8_t { Edge, Mid, Entry };
+  // Which copy of a cut node sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses.
+  struct CutNodeGroup {
+    std::uint32_t coarse, sub, group;
+    friend bool operator<(const CutNodeGroup& a, const CutNodeGroup& b) {
+      return a.coarse != b.coarse ? a.coarse < b.coarse : a.sub < b.sub;
+    }
+  };
   struct CutNode;
   struct CoarseTet;
   using GNode = std::uint64_t;  // corner: node slot; cut node: kCutBit | cut node index
@@ -153,7 +160,9 @@ class CutEngine {
   void update_face_position(std::uint32_t id);
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
-  void regroup(std::uint32_t cut_id);
+  // Regroups the sub-tetrahedra around a cut node; appends the coarse tetrahedra whose
+  // sub-tetrahedra changed group to `changed`.
+  void regroup(std::uint32_t cut_id, std::vector<std::uint32_t>& changed);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
   void commit(const std::set<std::uint32_t>& affected, const std::set<std::uint32_t>& left_faces_tets,
               CutStepStats& stats);
@@ -192,6 +201,7 @@ class CutEngine {
     std::vector<std::pair<std::array<GNode, 3>, std::uint32_t>> faces;
     std::vector<GNode> smallest;
     std::vector<std::pair<GNode, std::uint32_t>> order;
+    std::vector<CutNodeGroup> group_of;
   } scratch_;
   CutTotals totals_;
 };

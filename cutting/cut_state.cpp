@@ -1,6 +1,7 @@
 #include "cutting/cut_state.hpp"
 
 #include <algorithm>
+#include <vector>
 
 #include "cutting/mesh.hpp"
 
@@ -70,13 +71,31 @@ std::uint32_t encode(const CutTopology& t) {
 
 }  // namespace
 
-CanonicalState canonicalize(const CutTopology& t) {
+namespace {
+
+CanonicalState search_canonical(const CutTopology& t) {
   CanonicalState best{permute(t, Perm4::all()[0]), Perm4::all()[0]};
   for (const Perm4& p : Perm4::all()) {
     const CutTopology image = permute(t, p);
     if (encode(image) < encode(best.reference)) best = {image, p};
   }
   return best;
+}
+
+}  // namespace
+
+// All 2^14 topologies are canonicalized once, on first use (a few milliseconds): the cut step
+// looks its states up.
+CanonicalState canonicalize(const CutTopology& t) {
+  static const std::vector<CanonicalState> table = [] {
+    std::vector<CanonicalState> all(1u << 14);
+    for (std::uint32_t code = 0; code < all.size(); ++code)
+      all[code] = search_canonical({static_cast<std::uint8_t>(code >> 8),
+                                    static_cast<std::uint8_t>((code >> 4) & 15u),
+                                    static_cast<std::uint8_t>(code & 15u)});
+    return all;
+  }();
+  return table[encode(t)];
 }
 
 EdgeClass edge_class(std::uint8_t mask) {
