@@ -30,7 +30,8 @@ struct CutEngine::CoarseTet {
   std::vector<std::array<GNode, 4>> subs;   // the subdivision in abstract nodes
   std::vector<std::array<NodeId, 4>> real;  // the real nodes of each live sub-tetrahedron
   std::vector<TetId> live;
-  CutTopology topology;
+  CutTopology topology;  // in local labels
+  CanonicalState state;  // the state (§4.2): canonical topology and absolute transformation
   bool complete = false;
 };
 
@@ -169,6 +170,11 @@ std::uint32_t CutEngine::coarse_of(TetId live) const {
 CutTopology CutEngine::topology(std::uint32_t coarse_slot) const {
   const auto it = cut_tets_.find(coarse_slot);
   return it == cut_tets_.end() ? CutTopology{} : it->second.topology;
+}
+
+CanonicalState CutEngine::state(std::uint32_t coarse_slot) const {
+  const auto it = cut_tets_.find(coarse_slot);
+  return it == cut_tets_.end() ? CanonicalState{} : it->second.state;
 }
 
 std::string CutEngine::state_label_of(std::uint32_t coarse_slot) const {
@@ -328,7 +334,7 @@ CutTopology CutEngine::compute_topology(std::uint32_t t) const {
 void CutEngine::subdivide(std::uint32_t t, std::vector<std::array<GNode, 4>>& out) const {
   const auto& v = coarse_.tet_vertex_indices(t);
   out.assign(1, {v[0], v[1], v[2], v[3]});
-  const CanonicalState state = canonicalize(compute_topology(t));
+  const CanonicalState& state = cut_tets_.at(t).state;
   const auto& p = state.transform.p;  // reference vertex i is local vertex p[i]
   for (const CutInstruction& ins : table_.program) {
     if (!ins.applies(state.reference)) continue;
@@ -542,6 +548,7 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
     }
     const std::string before = table_.label(c.topology, c.complete);
     c.topology = compute_topology(t);
+    c.state = canonicalize(c.topology);
     subdivide(t, c.subs);
     for (const auto& s : c.subs)
       for (const GNode g : s)

@@ -120,6 +120,9 @@ class CutEngine {
   [[nodiscard]] const TetMesh& coarse() const { return coarse_; }
   // The state of a coarse tetrahedron (by slot): topology in local labels, or empty topology.
   [[nodiscard]] CutTopology topology(std::uint32_t coarse_slot) const;
+  // Its state: the canonical topology and the absolute transformation (reference label i is local
+  // vertex transform.p[i]).
+  [[nodiscard]] CanonicalState state(std::uint32_t coarse_slot) const;
   [[nodiscard]] std::string state_label_of(std::uint32_t coarse_slot) const;
   // The coarse tetrahedron a live tetrahedron belongs to (itself if never cut).
   [[nodiscard]] std::uint32_t coarse_of(TetId live) const;

@@ -148,8 +148,11 @@ void check_state(const CutTable& table, const MachineState& s, const Perm4& perm
   cutter.impose(target, local, s.complete);
   const auto r = validate(mesh, {.reference_volume = volume, .check_current = true});
   REQUIRE_MESSAGE(r.ok(), table.label(s.topology, s.complete) << ": " << r.summary());
-  // The cut topology the state claims.
+  // The cut topology the state claims, and the stored state and transformation map back to it.
   CHECK(cutter.topology(target) == local);
+  const CanonicalState stored = cutter.state(target);
+  CHECK(stored.reference == s.topology);
+  CHECK(permute(local, stored.transform) == s.topology);
   for (std::uint32_t n = static_cast<std::uint32_t>(n0); n < mesh.node_capacity(); ++n)
     if (mesh.node_slot_alive(n)) REQUIRE(on_coarse_simplex(cutter.coarse(), mesh.rest(mesh.node_handle(n))));
   if (!embedded && s.complete) {
