@@ -17,6 +17,7 @@ struct CutEngine::CutNode {
   Vec3 sample_sum = Vec3::Zero();      // mid node: sum of sampled ENP barycentrics (§5.2)
   int samples = 0;
   bool crossing = false;             // mid node: the blade crosses the face now
+  bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // edge node: normal of the swept surface where it was cut
   std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
@@ -39,6 +40,7 @@ void CutTotals::add(const CutStepStats& s) {
   ++steps;
   edges_cut += s.edges_cut;
   backward_crossings += s.backward_crossings;
+  replaced_crossings += s.replaced_crossings;
   recrossed_edges += s.recrossed_edges;
   recrossed_faces += s.recrossed_faces;
   face_pierces += s.face_pierces;
@@ -358,11 +360,16 @@ void CutEngine::subdivide(std::uint32_t t, std::vector<std::array<GNode, 4>>& ou
 }
 
 bool CutEngine::is_crack_face(GNode a, GNode b, GNode c) const {
-  for (const GNode g : {a, b, c}) {
-    if (!(g & kCutBit)) return false;
-    if (cut_nodes_[static_cast<size_t>(g & ~kCutBit)].kind == CutNode::Kind::Entry) return false;
-  }
+  for (const GNode g : {a, b, c})
+    if (!(g & kCutBit) || !opens(static_cast<std::uint32_t>(g & ~kCutBit))) return false;
   return true;
+}
+
+// Entry nodes lie on the tip's path and registered edge nodes were crossed only by the blunt side:
+// neither ever separates.
+bool CutEngine::opens(std::uint32_t id) const {
+  const CutNode& n = cut_nodes_[id];
+  return n.kind != CutNode::Kind::Entry && !n.registered;
 }
 
 std::vector<std::uint32_t> CutEngine::coarse_tets_around(const std::array<std::uint32_t, 3>& key) const {
@@ -552,7 +559,7 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
     subdivide(t, c.subs);
     for (const auto& s : c.subs)
       for (const GNode g : s)
-        if ((g & kCutBit) && cut_nodes_[static_cast<size_t>(g & ~kCutBit)].kind != CutNode::Kind::Entry)
+        if ((g & kCutBit) && opens(static_cast<std::uint32_t>(g & ~kCutBit)))
           regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
     c.complete = false;
     const std::string after = table_.label(c.topology, c.complete);
@@ -623,23 +630,37 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   std::vector<Key3> new_edges;
   for (const EdgeCut* e : edges) {
     const Key3 k = edge_key(e->a, e->b);
-    if (edge_nodes_.count(k)) {
-      ++stats.recrossed_edges;
-      continue;
-    }
-    if (!e->forward) {
-      ++stats.backward_crossings;
-      continue;
-    }
     double t = std::clamp(e->t, options_.min_edge_param, 1.0 - options_.min_edge_param);
     if (e->a > e->b) t = 1.0 - t;  // weights follow the ascending key
+    const auto known = edge_nodes_.find(k);
+    if (known != edge_nodes_.end()) {
+      CutNode& n = cut_nodes_[known->second];
+      if (!e->forward) {
+        ++stats.backward_crossings;
+      } else if (n.registered) {
+        // §5, Fig. 9: a forward crossing of a registered edge moves its node to the new crossing
+        // and makes it a cut; the subdivision stays.
+        n.registered = false;
+        n.bary = Vec3(1.0 - t, t, 0.0);
+        place_cut_node(known->second);
+        for (const std::uint32_t c : coarse_tets_around(k)) affected.insert(c);
+        ++stats.replaced_crossings;
+        ++stats.edges_cut;
+      } else {
+        ++stats.recrossed_edges;
+      }
+      continue;
+    }
+    // A new crossing. A backward one (Eq. 1: the blunt side leads) is registered on the edge: the
+    // edge node exists and subdivides, but it never opens until a forward crossing cuts it.
     const std::uint32_t id = new_cut_node(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0));
     // Normal of the swept surface at the crossing: blade direction x blade motion there.
     const Vec3 dir = (1.0 - e->s) * (pose.back - prev.back) + e->s * (pose.tip - prev.tip);
     cut_nodes_[id].sheet_normal = (pose.tip - pose.back).cross(dir);
+    cut_nodes_[id].registered = !e->forward;
     edge_nodes_.emplace(k, id);
     new_edges.push_back(k);
-    ++stats.edges_cut;
+    ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
 
   // Tip pierces: entry nodes (§4.1).

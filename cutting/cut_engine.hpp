@@ -76,6 +76,7 @@ struct CutChanges {
 struct CutStepStats {
   std::size_t edges_cut = 0;           // forward crossings that split an edge
   std::size_t backward_crossings = 0;  // crossings by the blunt side (Eq. 1): registered, not cut
+  std::size_t replaced_crossings = 0;  // forward crossings of registered edges (§5, Fig. 9)
   std::size_t recrossed_edges = 0;     // crossings of an edge already cut (recursive case, §6)
   std::size_t recrossed_faces = 0;     // pierces or crossings of a face already cut through (§6)
   std::size_t face_pierces = 0;        // entry nodes created
@@ -88,8 +89,8 @@ struct CutStepStats {
 
 struct CutTotals {
   std::size_t steps = 0;
-  std::size_t edges_cut = 0, backward_crossings = 0, recrossed_edges = 0, recrossed_faces = 0,
-              face_pierces = 0;
+  std::size_t edges_cut = 0, backward_crossings = 0, replaced_crossings = 0, recrossed_edges = 0,
+              recrossed_faces = 0, face_pierces = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
   std::map<std::string, std::size_t> transitions;  // "A0->B0": count
@@ -171,6 +172,7 @@ class CutEngine {
               CutStepStats& stats);
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   bool is_crack_face(GNode a, GNode b, GNode c) const;
+  bool opens(std::uint32_t cut_id) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
   std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
 

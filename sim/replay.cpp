@@ -224,6 +224,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   for (const auto& [s, n] : by_size) histogram[std::to_string(s)] = n;
   report["cutting"] = {{"edges_cut", totals.edges_cut},
                        {"backward_crossings", totals.backward_crossings},
+                       {"replaced_crossings", totals.replaced_crossings},
                        {"recrossed_edges", totals.recrossed_edges},
                        {"recrossed_faces", totals.recrossed_faces},
                        {"face_pierces", totals.face_pierces},

@@ -440,13 +440,21 @@ void Parser::tool(const Value& v, ToolSettings& out) const {
   if (const auto x = m.get("name")) out.name = string(*x);
   if (const auto x = m.get("blade")) {
     const Map b(*this, *x);
-    b.only({"back", "tip"});
+    b.only({"back", "tip", "edge"});
     out.blade_back = vector<3>(b.require("back"));
     const Value vtip = b.require("tip");
     out.blade_tip = vector<3>(vtip);
     const double length = (out.blade_tip - out.blade_back).norm();
     if (!(length > 0.0 && length <= 0.2))
       fail(vtip, "blade length " + format(length) + " is out of range, expected 0 < length <= 0.2 [m]");
+    if (const auto e = b.get("edge")) {
+      // Only the part across the blade counts: the direction the sharp edge faces.
+      const Vec3 along = (out.blade_tip - out.blade_back) / length;
+      Vec3 edge = vector<3>(*e);
+      edge -= edge.dot(along) * along;
+      if (!(edge.norm() > 1e-9)) fail(*e, "the edge direction must not be parallel to the blade");
+      out.blade_edge = edge.normalized();
+    }
   }
 }
 

@@ -75,6 +75,9 @@ struct ToolSettings {
   std::string name = "scalpel";
   Vec3 blade_back = Vec3(0.0, 0.0, 0.02);  // [m] tool frame
   Vec3 blade_tip = Vec3::Zero();           // [m] tool frame
+  // Unit direction the sharp edge faces, tool frame, across the blade; none: the blade's motion
+  // (every crossing is forward, Eq. 1).
+  std::optional<Vec3> blade_edge;
 };
 
 enum class DeviceKind { Mock, Hid, Libusb, Mouse };

@@ -46,8 +46,9 @@ BladePose Simulation::blade(const ToolSample& s) const {
   const DeviceMapping& map = scenario_.device.mapping;
   const Vec3 position = map.rotation * (map.scale * s.position) + map.offset;
   const Eigen::Quaterniond orientation = map.rotation * s.orientation;
+  const Vec3 edge = scenario_.tool.blade_edge ? Vec3(orientation * *scenario_.tool.blade_edge) : Vec3::Zero();
   return {position + orientation * scenario_.tool.blade_back,
-          position + orientation * scenario_.tool.blade_tip, Vec3::Zero()};
+          position + orientation * scenario_.tool.blade_tip, edge};
 }
 
 void Simulation::on_sample(const ToolSample& s) {

@@ -215,3 +215,37 @@ TEST_CASE("element counts per final pattern and tetrahedra per cut tetrahedron")
     require_valid(mesh, 1.0 / 6.0 * (Vec3(1, 0, 0).dot(Vec3(0.2, 1, 0).cross(Vec3(0.3, 0.2, 1)))));
   }
 }
+
+TEST_CASE("backward crossings are registered, a later forward crossing cuts in their place (Eq. 1, Fig. 9)") {
+  TetMesh mesh = make_box({.cells = {4, 4, 4}});
+  CutEngine cutter(mesh);
+  // The sharp edge faces -y. Pulling the blade along +y leads with the blunt side.
+  auto blade = [](double x, double y) {
+    return BladePose{Vec3(x, y, 1.5), Vec3(x, y, -0.5), Vec3(0, -1, 0)};
+  };
+  cutter.place(blade(0.37, -0.5));
+  for (int k = 1; k <= 200; ++k) {
+    cutter.step(blade(0.37, -0.5 + 0.01 * k));
+    require_valid(mesh, 1.0);
+  }
+  const std::size_t registered = cutter.totals().backward_crossings;
+  CHECK(registered > 0);
+  CHECK(cutter.totals().edges_cut == 0);
+  CHECK(connected_components(mesh).count() == 1);
+  CHECK(open_crack_area(mesh, 0.37) == 0.0);  // nothing opened
+  const std::size_t tets_after_backward = mesh.tet_count();
+
+  // Forward along -y at x = 0.38: the same edges, crossed by the sharp side. Their nodes move to the
+  // new crossings and cut; the subdivision stays.
+  cutter.place(blade(0.38, 1.5));
+  for (int k = 1; k <= 200; ++k) {
+    cutter.step(blade(0.38, 1.5 - 0.01 * k));
+    require_valid(mesh, 1.0);
+  }
+  CHECK(cutter.totals().replaced_crossings == registered);
+  CHECK(cutter.totals().edges_cut == registered);
+  CHECK(cutter.totals().recrossed_edges == 0);
+  CHECK(mesh.tet_count() == tets_after_backward);
+  CHECK(connected_components(mesh).count() == 2);
+  for (const Vec3& p : cutter.cut_points()) CHECK(p.x() == doctest::Approx(0.38).epsilon(1e-12));
+}

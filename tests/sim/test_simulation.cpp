@@ -3,6 +3,7 @@
 #include <cmath>
 #include <random>
 
+#include "cutting/input_error.hpp"
 #include "cutting/topology.hpp"
 #include "cutting/validate.hpp"
 #include "sim/scenario.hpp"
@@ -115,4 +116,23 @@ TEST_CASE("tissue under a thousand random cuts: energy bounded, no NaN, invarian
     CHECK_MESSAGE(r.ok(), r.summary());
     for (const NodeId n : sim.mesh().nodes()) REQUIRE(sim.mesh().position(n).allFinite());
   }
+}
+
+TEST_CASE("the blade's sharp side comes from the scenario and turns with the tool") {
+  std::string text = kScenario;
+  text.replace(text.find("MODEL"), 5, "corotational");
+  text.replace(text.find("tip: [0, 0, 0]}"), 15, "tip: [0, 0, 0], edge: [1, 0, 0.5]}");
+  const Scenario sc = parse_scenario(text, "edge.yaml", ".");
+  REQUIRE(sc.tool.blade_edge);
+  CHECK(sc.tool.blade_edge->isApprox(Vec3(1, 0, 0)));  // the part along the blade is dropped
+  Simulation sim(sc);
+  ToolSample s;
+  s.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(1.5707963267948966, Vec3::UnitZ()));
+  CHECK(sim.blade(s).cutting_direction.isApprox(Vec3(0, 1, 0), 1e-12));
+
+  std::string parallel = kScenario;
+  parallel.replace(parallel.find("MODEL"), 5, "corotational");
+  parallel.replace(parallel.find("tip: [0, 0, 0]}"), 15, "tip: [0, 0, 0], edge: [0, 0, 2]}");
+  CHECK_THROWS_WITH_AS((void)parse_scenario(parallel, "edge.yaml", "."),
+                       doctest::Contains("must not be parallel to the blade"), InputError);
 }
