@@ -249,3 +249,26 @@ TEST_CASE("backward crossings are registered, a later forward crossing cuts in t
   CHECK(connected_components(mesh).count() == 2);
   for (const Vec3& p : cutter.cut_points()) CHECK(p.x() == doctest::Approx(0.38).epsilon(1e-12));
 }
+
+TEST_CASE("example 4 (Fig. 11): a tetrahedron cut over one edge without a pierce is in A0") {
+  TetMesh mesh;
+  const NodeId a = mesh.add_node(Vec3(0, 0, 0)), b = mesh.add_node(Vec3(1, 0, 0)),
+               c = mesh.add_node(Vec3(0, 1, 0)), d = mesh.add_node(Vec3(0, 0, 1));
+  mesh.add_tet({a, b, c, d});
+  CutEngine cutter(mesh);
+  // A blade across edge AB, on the line y + z = s at x = 0.5, both ends outside the tetrahedron;
+  // s goes from -0.05 (outside, beyond AB) to 0.05: the blade enters over the edge, not by a face.
+  auto blade = [](double s) {
+    return BladePose{Vec3(0.5, -0.1, 0.1 + s), Vec3(0.5, 0.1 + s, -0.1), Vec3::Zero()};
+  };
+  cutter.place(blade(-0.05));
+  for (int k = 1; k <= 10; ++k) {
+    cutter.step(blade(-0.05 + 0.01 * k));
+    require_valid(mesh, 1.0 / 6.0);
+  }
+  CHECK(cutter.totals().edges_cut == 1);
+  CHECK(cutter.totals().face_pierces == 0);
+  CHECK(cutter.state_label_of(0) == "A0");
+  CHECK(cutter.totals().transitions.at("O0->A0") == 1);
+  CHECK(mesh.tet_count() == 6);  // one edge, two crossed faces: the in-progress pattern of section 4.1
+}
