@@ -90,6 +90,28 @@ void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& face
   }
 }
 
+// Two faces with the same vertices, the second's cyclic order the reverse of the first's.
+bool opposite(const std::array<std::uint32_t, 3>& p, const std::array<std::uint32_t, 3>& q) {
+  for (int s = 0; s < 3; ++s)
+    if (q[0] == p[static_cast<size_t>(s)] && q[1] == p[static_cast<size_t>((s + 2) % 3)] &&
+        q[2] == p[static_cast<size_t>((s + 1) % 3)])
+      return true;
+  return false;
+}
+
+// Invariant 4: the total rest volume equals the reference (relative 1e-12 per tetrahedron).
+void check_volume(const TetMesh& m, const ValidationOptions& options, Collector& c) {
+  if (!options.reference_volume) return;
+  const double v0 = *options.reference_volume, v = m.total_rest_volume();
+  const double tol = 1e-12 * std::max<double>(1.0, static_cast<double>(m.tet_count())) * std::abs(v0);
+  if (std::abs(v - v0) <= tol) return;
+  std::ostringstream s;
+  s.precision(17);
+  s << "total rest volume " << v << " differs from the original " << v0 << " by " << std::abs(v - v0)
+    << " (tolerance " << tol << ")";
+  c.add(Invariant::Volume, kInvalidIndex, s.str());
+}
+
 }  // namespace
 
 const char* invariant_name(Invariant i) {
@@ -158,11 +180,7 @@ ValidationReport validate(const TetMesh& m, const ValidationOptions& options) {
       // Opposite orientation: the second's cyclic order is the reverse of the first's.
       const auto& p = uses[0].oriented;
       const auto& q = uses[1].oriented;
-      bool reversed = false;
-      for (int s = 0; s < 3; ++s)
-        reversed |= q[0] == p[static_cast<size_t>(s)] && q[1] == p[static_cast<size_t>((s + 2) % 3)] &&
-                    q[2] == p[static_cast<size_t>((s + 1) % 3)];
-      if (!reversed)
+      if (!opposite(p, q))
         c.add(Invariant::Conforming, uses[0].tet,
               tet_text(m, uses[0].tet) + " and " + tet_text(m, uses[1].tet) +
                   " share a face with the same orientation");
@@ -197,19 +215,7 @@ ValidationReport validate(const TetMesh& m, const ValidationOptions& options) {
                 std::to_string(back) + " times");
   }
 
-  // 4. Volume.
-  if (options.reference_volume) {
-    const double v0 = *options.reference_volume;
-    const double v = m.total_rest_volume();
-    const double tol = 1e-12 * std::max<double>(1.0, static_cast<double>(m.tet_count())) * std::abs(v0);
-    if (!(std::abs(v - v0) <= tol)) {
-      std::ostringstream s;
-      s.precision(17);
-      s << "total rest volume " << v << " differs from the original " << v0 << " by " << std::abs(v - v0)
-        << " (tolerance " << tol << ")";
-      c.add(Invariant::Volume, kInvalidIndex, s.str());
-    }
-  }
+  check_volume(m, options, c);
   return report;
 }
 
@@ -278,12 +284,7 @@ ValidationReport validate_local(const TetMesh& m, std::span<const std::uint32_t>
         const int g = m.neighbour_face(th, f);
         if (g >= 0) {
           const auto q = face_vertex_indices(m, others[0], g);
-          bool reversed = false;
-          for (int s0 = 0; s0 < 3; ++s0)
-            reversed |= q[0] == fv[static_cast<size_t>(s0)] &&
-                        q[1] == fv[static_cast<size_t>((s0 + 2) % 3)] &&
-                        q[2] == fv[static_cast<size_t>((s0 + 1) % 3)];
-          if (!reversed)
+          if (!opposite(fv, q))
             c.add(Invariant::Conforming, t,
                   tet_text(m, t) + " and " + tet_text(m, others[0]) +
                       " share a face with the same orientation");
@@ -308,17 +309,7 @@ ValidationReport validate_local(const TetMesh& m, std::span<const std::uint32_t>
   }
   check_hanging_nodes(m, boundary, c);
 
-  // 4. Volume.
-  if (options.reference_volume) {
-    const double v0 = *options.reference_volume, v = m.total_rest_volume();
-    const double tol = 1e-12 * std::max<double>(1.0, static_cast<double>(m.tet_count())) * std::abs(v0);
-    if (!(std::abs(v - v0) <= tol)) {
-      std::ostringstream s;
-      s.precision(17);
-      s << "total rest volume " << v << " differs from the original " << v0 << " by " << std::abs(v - v0);
-      c.add(Invariant::Volume, kInvalidIndex, s.str());
-    }
-  }
+  check_volume(m, options, c);
   return report;
 }
 
