@@ -614,9 +614,6 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   std::set<std::uint32_t> affected;  // coarse tetrahedra to subdivide again
   const std::size_t nodes_before = mesh_.node_count();
 
-  auto new_cut_node = [&](CutNode::Kind kind, const Key3& key, const Vec3& bary) {
-    return create_cut_node(kind, key, bary);
-  };
   auto face_bary = [&](const Key3& k, const Vec3& point) {
     const auto& x = coarse_.positions();
     return barycentric(point, x[k[0]], x[k[1]], x[k[2]]);
@@ -653,7 +650,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     }
     // A new crossing. A backward one (Eq. 1: the blunt side leads) is registered on the edge: the
     // edge node exists and subdivides, but it never opens until a forward crossing cuts it.
-    const std::uint32_t id = new_cut_node(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0));
+    const std::uint32_t id = create_cut_node(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0));
     // Normal of the swept surface at the crossing: blade direction x blade motion there.
     const Vec3 dir = (1.0 - e->s) * (pose.back - prev.back) + e->s * (pose.tip - prev.tip);
     cut_nodes_[id].sheet_normal = (pose.tip - pose.back).cross(dir);
@@ -673,7 +670,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       continue;
     }
     const Vec3 w = clamp_interior(face_bary(k, p.point), options_.min_face_bary);
-    entry_nodes_.emplace(k, new_cut_node(CutNode::Kind::Entry, k, w));
+    entry_nodes_.emplace(k, create_cut_node(CutNode::Kind::Entry, k, w));
     changed_faces.insert(k);
     positioned_faces.insert(k);
     ++stats.face_pierces;
@@ -688,7 +685,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     const Vec3 w = clamp_interior(sample, options_.min_face_bary);
     std::uint32_t id = face_node(mid_nodes_, k);
     if (id == kInvalidIndex) {
-      id = new_cut_node(CutNode::Kind::Mid, k, w);
+      id = create_cut_node(CutNode::Kind::Mid, k, w);
       mid_nodes_.emplace(k, id);
       changed_faces.insert(k);
     }
@@ -720,7 +717,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     for (const Key3& fk : faces_around_edge(k)) {
       positioned_faces.insert(fk);
       if (face_node(mid_nodes_, fk) == kInvalidIndex) {
-        mid_nodes_.emplace(fk, new_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
+        mid_nodes_.emplace(fk, create_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
         changed_faces.insert(fk);
       }
     }
