@@ -1,6 +1,7 @@
 #include "cutting/cut_engine.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <set>
 #include <stdexcept>
@@ -14,7 +15,9 @@ struct CutEngine::CutNode {
   Kind kind = Kind::Edge;
   std::array<std::uint32_t, 3> key{};  // sorted coarse node slots; an edge has key[2] = kInvalidIndex
   Vec3 bary = Vec3::Zero();            // weights of the key nodes
-  Vec3 sample_sum = Vec3::Zero();      // mid node: sum of sampled ENP barycentrics (§5.2)
+  Vec3 placed_bary = Vec3::Zero();     // the weights its copies were last placed at
+  bool placed = false;
+  Vec3 sample_sum = Vec3::Zero();  // mid node: sum of sampled ENP barycentrics (§5.2)
   int samples = 0;
   bool crossing = false;             // mid node: the blade crosses the face now
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
@@ -44,6 +47,7 @@ void CutTotals::add(const CutStepStats& s) {
   recrossed_edges += s.recrossed_edges;
   recrossed_faces += s.recrossed_faces;
   face_pierces += s.face_pierces;
+  undone_faces += s.undone_faces;
   tets_created += s.tets_created;
   tets_removed += s.tets_removed;
   nodes_created += s.nodes_created;
@@ -204,24 +208,29 @@ std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, con
   return it == map.end() ? kInvalidIndex : it->second;
 }
 
-// Places every copy of a cut node at its weights over the coarse nodes, in the rest and the
-// current configuration (DESIGN §3: the cut is made in the current configuration and carried to
-// the rest one by the same weights).
+// Places every copy of a cut node at its weights over the coarse nodes (DESIGN §3: the cut is
+// made in the current configuration and carried to the rest one by the same weights). The rest
+// position is the weighted one. In the current configuration a node that was placed before moves
+// by the change of its weights over the current corners: it keeps the displacement the tissue
+// gave it instead of snapping back onto the straight coarse face, which would strain its elements.
 void CutEngine::place_cut_node(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
   const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
-  Vec3 r = Vec3::Zero(), x = Vec3::Zero();
+  Vec3 r = Vec3::Zero(), x = Vec3::Zero(), dx = Vec3::Zero();
   for (int i = 0; i < count; ++i) {
     const NodeId p = mesh_.node_handle(n.key[static_cast<size_t>(i)]);
     r += n.bary[i] * mesh_.rest(p);
     x += n.bary[i] * mesh_.position(p);
+    dx += (n.bary[i] - n.placed_bary[i]) * mesh_.position(p);
   }
   for (const NodeId c : n.copies) {
     mesh_.set_rest(c, r);
-    mesh_.set_position(c, x);
+    mesh_.set_position(c, n.placed ? Vec3(mesh_.position(c) + dx) : x);
     changes_.moved_nodes.push_back(c);
     changes_.touched_nodes.push_back(c.index);
   }
+  n.placed_bary = n.bary;
+  n.placed = true;
 }
 
 // Where a mid node stands (§4.1, §5.2): on the blade while the blade crosses the face; afterwards
@@ -599,6 +608,7 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
 CutStepStats CutEngine::step(const BladePose& pose) {
   CutStepStats stats;
   changes_.clear();
+  removed_nodes_ = 0;
   if (!placed_) {
     place(pose);
     totals_.add(stats);
@@ -660,10 +670,15 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
 
-  // Tip pierces: entry nodes (§4.1).
+  // Tip pierces: entry nodes (§4.1). A pierce of a face that holds an entry node from an earlier
+  // step is the tip leaving by the face it came in by (§5.1, handled below).
+  std::set<Key3> tip_left;
   for (const auto& p : sweep_result_.pierces) {
     const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
-    if (entry_nodes_.count(k)) continue;
+    if (entry_nodes_.count(k)) {
+      if (!changed_faces.count(k)) tip_left.insert(k);
+      continue;
+    }
     const std::uint32_t mid = face_node(mid_nodes_, k);
     if (mid != kInvalidIndex && cut_nodes_[mid].copies.size() > 1) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
@@ -701,8 +716,10 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     positioned_faces.insert(k);
   }
   std::set<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
+  std::vector<Key3> left_faces;
   for (const Key3& k : crossing_faces_) {
     if (crossing_now.count(k)) continue;
+    left_faces.push_back(k);
     cut_nodes_[mid_nodes_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
     positioned_faces.insert(k);
     for (const std::uint32_t t : coarse_tets_around(k)) left_faces_tets.insert(t);
@@ -710,6 +727,29 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   crossing_faces_.clear();
   for (const Key3& k : crossing_now)
     if (cut_nodes_[mid_nodes_.at(k)].crossing) crossing_faces_.insert(k);
+
+  // Tremble at faces (§5.1, the dotted transitions O1->O3, O2->O1, A2->A1, B2->B1, F2->F1): a tip
+  // that leaves by the face it entered before any edge of that face is cut undoes the face's
+  // subdivision; so does a blade that stops crossing a face none of whose edges it cut.
+  for (const Key3& k : tip_left) {
+    const std::uint32_t mid = face_node(mid_nodes_, k);
+    if (face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].copies.size() > 1)) {
+      ++stats.recrossed_faces;  // the tip crosses a cut face again: the recursive case (§6)
+      continue;
+    }
+    undo_face(k, !crossing_faces_.count(k));
+    changed_faces.insert(k);
+    ++stats.undone_faces;
+  }
+  for (const Key3& k : left_faces) {
+    const std::uint32_t id = face_node(mid_nodes_, k);
+    if (id == kInvalidIndex || entry_nodes_.count(k) || face_has_edge_node(k) ||
+        cut_nodes_[id].copies.size() > 1)
+      continue;
+    undo_face(k, true);
+    changed_faces.insert(k);
+    ++stats.undone_faces;
+  }
 
   // Every face around a new cut edge carries the trace of the swept surface through it.
   for (const Key3& k : new_edges) {
@@ -735,7 +775,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
 
   commit(affected, left_faces_tets, stats);
-  stats.nodes_created = mesh_.node_count() - nodes_before;
+  remove_undone_nodes();
+  stats.nodes_created = mesh_.node_count() + removed_nodes_ - nodes_before;
   totals_.add(stats);
 
 #ifdef SCALPEL_VALIDATE
@@ -798,6 +839,57 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   return stats;
 }
 
+bool CutEngine::face_has_edge_node(const Key3& k) const {
+  return edge_node(k[0], k[1]) != kInvalidIndex || edge_node(k[1], k[2]) != kInvalidIndex ||
+         edge_node(k[0], k[2]) != kInvalidIndex;
+}
+
+void CutEngine::undo_face(const Key3& k, bool mid) {
+  const auto entry = entry_nodes_.find(k);
+  if (entry != entry_nodes_.end()) {
+    undone_.push_back(entry->second);
+    entry_nodes_.erase(entry);
+  }
+  const std::uint32_t m = face_node(mid_nodes_, k);
+  if (m == kInvalidIndex) return;
+  if (mid) {
+    undone_.push_back(m);
+    mid_nodes_.erase(k);
+    crossing_faces_.erase(k);
+  } else {
+    cut_nodes_[m].entry_subtriangle = -1;
+    update_face_position(m);
+  }
+}
+
+// The real nodes of undone cut nodes, which no element uses any more after the rebuild.
+void CutEngine::remove_undone_nodes() {
+  if (undone_.empty()) return;
+  std::vector<NodeId> dead;
+  for (const std::uint32_t id : undone_) {
+    CutNode& n = cut_nodes_[id];
+    for (const NodeId c : n.copies) {
+      if (!mesh_.node_tets(c).empty())
+        throw std::logic_error("CutEngine: an undone cut node is still in use");
+      dead.push_back(c);
+    }
+    n.copies.clear();
+    n.group_of.clear();
+  }
+  undone_.clear();
+  auto is_dead = [&](NodeId x) { return std::find(dead.begin(), dead.end(), x) != dead.end(); };
+  for (std::size_t i = changes_.added_nodes.size(); i-- > 0;)
+    if (is_dead(changes_.added_nodes[i])) {
+      changes_.added_nodes.erase(changes_.added_nodes.begin() + static_cast<std::ptrdiff_t>(i));
+      changes_.added_node_parents.erase(changes_.added_node_parents.begin() + static_cast<std::ptrdiff_t>(i));
+    }
+  std::erase_if(changes_.moved_nodes, is_dead);
+  for (const NodeId x : dead) {
+    mesh_.remove_node(x);
+    ++removed_nodes_;
+  }
+}
+
 // A new cut node with one real copy, interpolated from its coarse nodes with weights `bary`.
 std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, const Vec3& bary) {
   CutNode n;
@@ -811,6 +903,8 @@ std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, cons
     p.weights[static_cast<size_t>(i)] = bary[i];
   }
   n.copies.push_back(add_node(p));
+  n.placed_bary = bary;
+  n.placed = true;
   cut_nodes_.push_back(std::move(n));
   return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
 }
@@ -825,7 +919,7 @@ NodeId CutEngine::add_node(const NodeParents& parents) {
 std::vector<Vec3> CutEngine::cut_points() const {
   std::vector<Vec3> out;
   for (const CutNode& n : cut_nodes_)
-    if (n.kind != CutNode::Kind::Mid) out.push_back(mesh_.rest(n.copies[0]));
+    if (n.kind != CutNode::Kind::Mid && !n.copies.empty()) out.push_back(mesh_.rest(n.copies[0]));
   return out;
 }
 
@@ -862,6 +956,31 @@ double CutEngine::cut_surface_area() const {
             0.5 * (position(face[1]) - position(face[0])).cross(position(face[2]) - position(face[0])).norm();
       }
   return area;
+}
+
+std::string CutEngine::check_faithful(double tolerance) const {
+  std::string out;
+  for (std::size_t id = 0; id < cut_nodes_.size(); ++id) {
+    const CutNode& n = cut_nodes_[id];
+    const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
+    Vec3 expect = Vec3::Zero();
+    double sum = 0.0, lo = 1.0;
+    for (int i = 0; i < count; ++i) {
+      expect += n.bary[i] * mesh_.rest(mesh_.node_handle(n.key[static_cast<size_t>(i)]));
+      sum += n.bary[i];
+      lo = std::min(lo, n.bary[i]);
+    }
+    const bool weights_ok = lo > 0.0 && std::abs(sum - 1.0) <= 1e-12 && (count == 3 || n.bary[2] == 0.0);
+    for (const NodeId c : n.copies) {
+      const double d = (mesh_.rest(c) - expect).norm();
+      if (weights_ok && d <= tolerance) continue;
+      out += "cut node " + std::to_string(id) + " (node " + std::to_string(c.index) + "): off its parent " +
+             (count == 2 ? "edge" : "face") + " by " + std::to_string(d) + " m, weights (" +
+             std::to_string(n.bary[0]) + ", " + std::to_string(n.bary[1]) + ", " + std::to_string(n.bary[2]) +
+             ")\n";
+    }
+  }
+  return out;
 }
 
 }  // namespace scalpel

@@ -80,6 +80,7 @@ struct CutStepStats {
   std::size_t recrossed_edges = 0;     // crossings of an edge already cut (recursive case, §6)
   std::size_t recrossed_faces = 0;     // pierces or crossings of a face already cut through (§6)
   std::size_t face_pierces = 0;        // entry nodes created
+  std::size_t undone_faces = 0;        // face subdivisions undone by tremble (§5.1)
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
   std::size_t nodes_created = 0;
@@ -90,7 +91,7 @@ struct CutStepStats {
 struct CutTotals {
   std::size_t steps = 0;
   std::size_t edges_cut = 0, backward_crossings = 0, replaced_crossings = 0, recrossed_edges = 0,
-              recrossed_faces = 0, face_pierces = 0;
+              recrossed_faces = 0, face_pierces = 0, undone_faces = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
   std::map<std::string, std::size_t> transitions;  // "A0->B0": count
@@ -140,6 +141,11 @@ class CutEngine {
   [[nodiscard]] double crack_opening() const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
+  // Invariant 5 (DESIGN section 5): every copy of every cut node lies, in the rest configuration,
+  // on its parent coarse edge or face at non-negative weights summing to one (edge nodes strictly
+  // inside their edge, face nodes inside their face). Returns one line per violation, empty if
+  // none; `tolerance` [m] on the distance from the weighted parent point.
+  [[nodiscard]] std::string check_faithful(double tolerance) const;
 
  private:
   enum class CutNodeKind : std::uint8_t { Edge, Mid, Entry };
@@ -161,6 +167,11 @@ class CutEngine {
   void place_cut_node(std::uint32_t id);
   NodeId add_node(const NodeParents& parents);
   std::uint32_t create_cut_node(CutNodeKind kind, const std::array<std::uint32_t, 3>& key, const Vec3& bary);
+  // Takes the face's entry node (and its mid node, with `mid`) out of the cut data; their real nodes
+  // are removed once the step has rebuilt the elements around the face (§5.1).
+  void undo_face(const std::array<std::uint32_t, 3>& key, bool mid);
+  bool face_has_edge_node(const std::array<std::uint32_t, 3>& key) const;
+  void remove_undone_nodes();
   void update_face_position(std::uint32_t id);
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
@@ -194,6 +205,8 @@ class CutEngine {
   std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
   std::set<std::array<std::uint32_t, 3>> crossing_faces_;              // faces the blade crosses now
   std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
+  std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed
+  std::size_t removed_nodes_ = 0;      // real nodes removed this step
   CutChanges changes_;
   // Scratch buffers of regroup(), kept to avoid allocating on every step.
   struct RegroupItem {

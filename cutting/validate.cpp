@@ -236,9 +236,15 @@ ValidationReport validate_local(const TetMesh& m, std::span<const std::uint32_t>
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   };
+  auto sorted_unique = [](std::vector<std::uint32_t> v) {
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    return v;
+  };
   std::vector<std::uint32_t> ring_nodes;
-  for (const std::uint32_t t : star({nodes.begin(), nodes.end()}))
+  for (const std::uint32_t t : star(sorted_unique({nodes.begin(), nodes.end()})))
     for (const std::uint32_t n : m.tet_vertex_indices(t)) ring_nodes.push_back(n);
+  ring_nodes = sorted_unique(std::move(ring_nodes));
   const std::vector<std::uint32_t> tets = star(ring_nodes);
 
   auto holds = [&](std::uint32_t t, std::uint32_t n) {

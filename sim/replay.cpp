@@ -228,6 +228,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                        {"recrossed_edges", totals.recrossed_edges},
                        {"recrossed_faces", totals.recrossed_faces},
                        {"face_pierces", totals.face_pierces},
+                       {"undone_face_subdivisions", totals.undone_faces},
                        {"tetrahedra_created", totals.tets_created},
                        {"tetrahedra_removed", totals.tets_removed},
                        {"nodes_created", totals.nodes_created},
