@@ -410,7 +410,9 @@ StepStats TissueModel::step(double dt) {
   // Escalation: a V(1,1) cycle costs about three block-Jacobi iterations, so a step whose warm start
   // is good stays on block-Jacobi; after two_level_after iterations CG restarts from its current
   // iterate with the two-level cycle (a restart keeps v and r; only the search direction is lost).
-  const int escalate = settings_.two_level_after;
+  // A warm start that removed less than half of the residual is a cold start: the cycle from the
+  // first iteration.
+  const int escalate = st.initial_residual > 0.5 ? 0 : settings_.two_level_after;
   cycle = two_level && coarse_.factored() && escalate <= 0;
   if (std::sqrt(rr) > target) restart();
   while (std::sqrt(rr) > target && it < settings_.max_iterations) {

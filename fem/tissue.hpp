@@ -54,12 +54,13 @@ struct TissueSettings {
   int threads = 2;                       // worker threads in step()
   Preconditioner preconditioner = Preconditioner::TwoLevel;
   // With TwoLevel, CG starts on block-Jacobi and restarts from its iterate with the two-level cycle
-  // after this many iterations (0: the cycle from the start).
+  // after this many iterations (0: the cycle from the start, as for any step whose warm start has a
+  // relative residual above 0.5).
   int two_level_after = 12;
   // The two-level preconditioner is rebuilt (aggregates and coarse factorisation) at the step after
   // one that needed more two-level iterations than this, or after the step in which cuts brought the
   // nodes added since the last build above coarse_rebuild_fraction of the active nodes.
-  int coarse_rebuild_iterations = 30;
+  int coarse_rebuild_iterations = 40;
   double coarse_rebuild_fraction = 0.1;
 };
 
