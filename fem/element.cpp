@@ -48,19 +48,32 @@ TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sl
   return r;
 }
 
-// Müller, Bender, Chentanez, Macklin 2016, Algorithm 1: rotate q about the axis that best aligns
-// the columns of R with those of F until the correction vanishes.
+// Müller, Bender, Chentanez, Macklin 2016, Algorithm 1, with a Newton step where it is safe (see
+// element.hpp): in the frame of R, with G = R^T F = S + W (symmetric + skew) and a the axial vector
+// of W, the correction phi making exp(-[phi]) G symmetric solves, to first order,
+//   (tr(S) I - S) phi = 2 a.
+// Algorithm 1 replaces tr(S) I - S by |tr(G)| I (a damped step: linear convergence, rate 1/3 even
+// for an isotropic stretch); the full solve converges quadratically. It is used when tr(S) I - S is
+// positive definite (any two principal stretches sum to more than zero: no inversion), else the
+// damped step keeps the iteration safe.
 void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) {
   if (!q.coeffs().allFinite() || q.norm() < 0.5) q.setIdentity();
   for (int it = 0; it < max_iterations; ++it) {
     const Mat3 r = q.toRotationMatrix();
-    const Vec3 num = r.col(0).cross(f.col(0)) + r.col(1).cross(f.col(1)) + r.col(2).cross(f.col(2));
-    const double den = std::abs(r.col(0).dot(f.col(0)) + r.col(1).dot(f.col(1)) + r.col(2).dot(f.col(2)));
-    const Vec3 omega = num / (den + 1e-300);
-    const double w = omega.norm();
+    const Mat3 g = r.transpose() * f;
+    const Vec3 two_a(g(2, 1) - g(1, 2), g(0, 2) - g(2, 0), g(1, 0) - g(0, 1));
+    const Mat3 s = 0.5 * (g + g.transpose());
+    Mat3 m = -s;
+    m.diagonal().array() += s.trace();
+    // Sylvester's criterion for m > 0.
+    const double m1 = m(0, 0), m2 = m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0), m3 = m.determinant();
+    const bool newton = m1 > 0 && m2 > 0 && m3 > 0;
+    const Vec3 phi = newton ? Vec3(m.inverse() * two_a) : Vec3(two_a / (std::abs(g.trace()) + 1e-300));
+    const double w = phi.norm();
     if (!(w > 1e-15)) break;
-    q = Eigen::Quaterniond(Eigen::AngleAxisd(w, omega / w)) * q;
+    q = q * Eigen::Quaterniond(Eigen::AngleAxisd(w, phi / w));
     q.normalize();
+    if (newton && w < 1e-8) break;  // quadratic convergence: the remaining error is O(w^2)
   }
 }
 

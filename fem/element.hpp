@@ -10,7 +10,8 @@
 //   stiffness K_ab = R K0_ab R^T = V (lambda c_a c_b^T + mu c_b c_a^T + mu (c_a . c_b) I),
 // with c_a = R b_a: the paper's "one linearisation per step" keeps R fixed over the step.
 // R is found by the iterative rotation extraction of Müller, Bender, Chentanez, Macklin, "A Robust
-// Method to Extract the Rotational Part of Deformations", MIG 2016, warm-started from the last R.
+// Method to Extract the Rotational Part of Deformations", MIG 2016, warm-started from the last R,
+// with the full Newton step where it is safe (element.cpp): quadratic instead of linear convergence.
 //
 // Mass-spring variant: a spring on each of the six edges of every tetrahedron (an edge shared by n
 // tetrahedra carries n springs, so the stiffness follows the volume around it) plus a volume term:

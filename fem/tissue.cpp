@@ -1,5 +1,7 @@
 #include "fem/tissue.hpp"
 
+#include "fem/parallel.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -7,33 +9,9 @@
 
 namespace scalpel {
 
-namespace {
-
-// Work is split into chunks of a fixed size, independent of the thread count, and per-chunk partial
-// sums are added in chunk order: reductions are deterministic.
-constexpr std::size_t kChunk = 256;
-
-std::size_t chunk_count(std::size_t n) {
-  return (n + kChunk - 1) / kChunk;
-}
-
-template <class F>
-void for_chunks(int threads, std::size_t n, F&& f) {
-  const long chunks = static_cast<long>(chunk_count(n));
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (long c = 0; c < chunks; ++c) {
-    const std::size_t begin = static_cast<std::size_t>(c) * kChunk;
-    f(static_cast<std::size_t>(c), begin, std::min(n, begin + kChunk));
-  }
-}
-
-double sum(const std::vector<double>& partial, std::size_t n) {
-  double s = 0;
-  for (std::size_t c = 0; c < n; ++c) s += partial[c];
-  return s;
-}
-
-}  // namespace
+using parallel::chunk_count;
+using parallel::for_chunks;
+using parallel::sum;
 
 TissueModel::TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueSettings settings)
     : mesh_(mesh), materials_(std::move(materials)), settings_(settings) {
@@ -72,7 +50,8 @@ void TissueModel::grow() {
     external_.resize(nn, Vec3::Zero());
     mass_.resize(nn, 0.0);
     rows_.resize(nn);
-    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_}) v->resize(nn, Vec3::Zero());
+    entries_.resize(nn);
+    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &t_}) v->resize(nn, Vec3::Zero());
     diag_inverse_.resize(nn, Mat3::Identity());
   }
   const std::size_t chunks = std::max(chunk_count(nn), chunk_count(nt));
@@ -131,6 +110,7 @@ void TissueModel::on_nodes_added(std::span<const NodeId> nodes, std::span<const 
     }
     fixed_[n] = fix ? 1 : 0;
     external_[n].setZero();
+    if (k < parents.size() && parents[k].count > 0) born_.emplace_back(n, parents[k].parents[0].index);
     if (!dirty_[n]) {
       dirty_[n] = 1;
       dirty_list_.push_back(n);
@@ -174,9 +154,10 @@ const TetRest& TissueModel::tet_rest(TetId t) const {
 
 // Rebuilds one node row: its incident elements, sparsity pattern and lumped mass.
 void TissueModel::rebuild_row(std::uint32_t i) {
-  Row& row = rows_[i];
+  BlockRow& row = rows_[i];
+  std::vector<Entry>& entries = entries_[i];
   row.cols.clear();
-  row.entries.clear();
+  entries.clear();
   mass_[i] = 0;
   active_[i] = 0;
   if (!mesh_.node_slot_alive(i)) {
@@ -204,7 +185,7 @@ void TissueModel::rebuild_row(std::uint32_t i) {
       if (n == i) e.local = a;
       e.block[static_cast<size_t>(a)] = col_of(n);
     }
-    row.entries.push_back(e);
+    entries.push_back(e);
     mass_[i] += materials_[static_cast<std::size_t>(tet_region_[t])].density * rest_[t].mass_volume / 4.0;
   }
   row.blocks.assign(row.cols.size(), Mat3::Zero());
@@ -262,11 +243,11 @@ void TissueModel::assemble(double dt) {
         b_[i].setZero();
         continue;
       }
-      Row& row = rows_[i];
+      BlockRow& row = rows_[i];
       for (Mat3& blk : row.blocks) blk.setZero();
       Vec3 f = Vec3::Zero();
       double mass_term = 0;
-      for (const Entry& e : row.entries) {
+      for (const Entry& e : entries_[i]) {
         const Material& m = materials_[static_cast<std::size_t>(tet_region_[e.tet])];
         const TetRest& rest = rest_[e.tet];
         const double h = dt * m.damping_stiffness + dt * dt;
@@ -293,24 +274,8 @@ void TissueModel::assemble(double dt) {
   });
 }
 
-void TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y, double& dot_xy) {
-  const std::size_t nn = rows_.size();
-  for_chunks(settings_.threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double d = 0;
-    for (std::size_t i = begin; i < end; ++i) {
-      if (!active_[i]) {
-        y[i].setZero();
-        continue;
-      }
-      const Row& row = rows_[i];
-      Vec3 s = Vec3::Zero();
-      for (std::size_t k = 0; k < row.cols.size(); ++k) s.noalias() += row.blocks[k] * x[row.cols[k]];
-      y[i] = s;
-      d += x[i].dot(s);
-    }
-    partial_[c] = d;
-  });
-  dot_xy = sum(partial_, chunk_count(nn));
+double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
+  return scalpel::multiply(rows_, active_, x, y, partial_, settings_.threads);
 }
 
 double TissueModel::elastic_energy() {
@@ -362,69 +327,132 @@ StepStats TissueModel::step(double dt) {
   // Preconditioned conjugate gradients on the active nodes, warm-started from the last velocity.
   const auto& vel = mesh_.velocities();
   for (std::size_t i = 0; i < nn; ++i) v_[i] = active_[i] ? vel[i] : Vec3::Zero();
-  double dummy = 0;
-  multiply(v_, q_, dummy);
+  const double vav = multiply(v_, q_);
   std::vector<double>& part = partial_;
   const std::size_t chunks = chunk_count(nn);
+  // Scaled warm start: v = s v0 with s = (b . v0) / (v0 . A v0), the multiple of v0 nearest the
+  // solution in the energy norm. Settling motion decays geometrically, so the plain v0 overshoots
+  // (after a cut it was a worse guess than zero); s = 1 for steady motion, s = 0 if v0 points away.
   for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double rz = 0, rr = 0, bb = 0;
+    double bv = 0;
+    for (std::size_t i = begin; i < end; ++i) bv += b_[i].dot(v_[i]);
+    part[c] = bv;
+  });
+  const double bv = sum(part, chunks);
+  const double scale = (vav > 0 && bv > 0) ? bv / vav : 0.0;
+  for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+    double rr = 0, bb = 0;
     for (std::size_t i = begin; i < end; ++i) {
-      r_[i] = b_[i] - q_[i];
-      z_[i] = diag_inverse_[i] * r_[i];
-      if (!active_[i]) {
-        r_[i].setZero();
-        z_[i].setZero();
-      }
-      p_[i] = z_[i];
-      rz += r_[i].dot(z_[i]);
+      v_[i] *= scale;
+      r_[i] = active_[i] ? Vec3(b_[i] - scale * q_[i]) : Vec3::Zero();
       rr += r_[i].squaredNorm();
       bb += b_[i].squaredNorm();
     }
-    part[c] = rz;
-    part[chunks + c] = rr;
-    part[2 * chunks + c] = bb;
+    part[c] = rr;
+    part[chunks + c] = bb;
   });
-  double rz = sum(part, chunks);
-  double rr = 0, bb = 0;
-  for (std::size_t c = 0; c < chunks; ++c) {
-    rr += part[chunks + c];
-    bb += part[2 * chunks + c];
-  }
+  double rr = sum(part, chunks), bb = 0;
+  for (std::size_t c = 0; c < chunks; ++c) bb += part[chunks + c];
   const double b_norm = std::sqrt(bb);
   if (!std::isfinite(b_norm) || !std::isfinite(rr)) return fail("non-finite forces or velocities");
-
+  st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
   const double target = settings_.tolerance * b_norm;
-  int it = 0;
+
+  // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
+  // a cut created, and rebuilt at the step after it was found stale (too many two-level iterations,
+  // or too many extended nodes), so a cut step itself never pays for a rebuild.
+  const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
+  if (two_level) {
+    if (coarse_stale_) {
+      coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), t_, partial_, threads);
+      coarse_stale_ = false;
+      st.preconditioner_built = true;
+    } else if (!born_.empty()) {
+      for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+      std::size_t active_count = 0;
+      for (std::size_t i = 0; i < nn; ++i) active_count += active_[i];
+      coarse_stale_ = static_cast<double>(coarse_.extended()) >
+                      settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
+    }
+  }
+  born_.clear();
+  // z = B r; returns r . z.
+  bool cycle = false;  // the two-level cycle is in use
+  const auto precondition = [&] {
+    if (cycle) {
+      coarse_.apply(rows_, diag_inverse_, active_, r_, z_, t_, part, threads);
+      for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+        double rz_c = 0;
+        for (std::size_t i = begin; i < end; ++i) rz_c += r_[i].dot(z_[i]);
+        part[c] = rz_c;
+      });
+    } else {
+      for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+        double rz_c = 0;
+        for (std::size_t i = begin; i < end; ++i) {
+          z_[i] = diag_inverse_[i] * r_[i];
+          rz_c += r_[i].dot(z_[i]);
+        }
+        part[c] = rz_c;
+      });
+    }
+    return sum(part, chunks);
+  };
+
+  int it = 0, cycle_it = 0;
+  double rz = 0;
+  const auto restart = [&] {
+    rz = precondition();
+    for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) p_[i] = z_[i];
+    });
+  };
+  // Escalation: a V(1,1) cycle costs about three block-Jacobi iterations, so a step whose warm start
+  // is good stays on block-Jacobi; after two_level_after iterations CG restarts from its current
+  // iterate with the two-level cycle (a restart keeps v and r; only the search direction is lost).
+  // A warm start that removed less than half of the residual is a cold start: the cycle from the
+  // first iteration.
+  const int escalate = st.initial_residual > 0.5 ? 0 : settings_.two_level_after;
+  cycle = two_level && coarse_.factored() && escalate <= 0;
+  if (std::sqrt(rr) > target) restart();
   while (std::sqrt(rr) > target && it < settings_.max_iterations) {
-    double pq = 0;
-    multiply(p_, q_, pq);
+    if (two_level && !cycle && it == escalate && coarse_.factored()) {
+      cycle = true;
+      restart();
+    }
+    if (cycle && !(rz > 0)) {  // the cycle is not positive definite here (omega): back to block-Jacobi
+      cycle = false;
+      coarse_stale_ = true;
+      restart();
+    }
+    const double pq = multiply(p_, q_);
     if (!(pq > 0)) break;  // A is positive definite on the active nodes; a breakdown ends the solve
     const double alpha = rz / pq;
     for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-      double rz_c = 0, rr_c = 0;
+      double rr_c = 0;
       for (std::size_t i = begin; i < end; ++i) {
         v_[i] += alpha * p_[i];
         r_[i] -= alpha * q_[i];
-        z_[i] = diag_inverse_[i] * r_[i];
-        rz_c += r_[i].dot(z_[i]);
         rr_c += r_[i].squaredNorm();
       }
-      part[c] = rz_c;
-      part[chunks + c] = rr_c;
+      part[c] = rr_c;
     });
-    const double rz_new = sum(part, chunks);
-    rr = 0;
-    for (std::size_t c = 0; c < chunks; ++c) rr += part[chunks + c];
+    rr = sum(part, chunks);
+    ++it;
+    cycle_it += cycle ? 1 : 0;
+    if (std::sqrt(rr) <= target) break;
+    const double rz_new = precondition();
     const double beta = rz_new / rz;
     rz = rz_new;
     for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) p_[i] = z_[i] + beta * p_[i];
     });
-    ++it;
   }
   st.cg_iterations = it;
   st.residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
   st.status = std::sqrt(rr) <= target ? StepStatus::Converged : StepStatus::IterationCap;
+  st.cycle_iterations = cycle_it;
+  if (cycle_it > settings_.coarse_rebuild_iterations) coarse_stale_ = true;
 
   // Commit only a finite state.
   const auto& pos = mesh_.positions();

@@ -3,8 +3,13 @@
 // Time integration: implicit Euler with one linearisation per step (Baraff & Witkin 1998; Müller &
 // Gross 2004, section 5), lumped mass M, Rayleigh damping C = alpha M + beta K per region:
 //   (M + dt C + dt^2 K) v1 = M v0 + dt (f(x0) + M g + f_ext),   x1 = x0 + dt v1,
-// solved by conjugate gradients with a 3x3 block-Jacobi preconditioner, warm-started from v0,
-// stopped at ||b - A v|| <= tolerance ||b|| or at the iteration cap. Fixed nodes have v = 0.
+// solved by conjugate gradients, stopped at ||b - A v|| <= tolerance ||b|| or at the iteration cap.
+// Fixed nodes have v = 0. The preconditioner is the two-level cycle of fem/two_level.hpp (or plain
+// 3x3 block-Jacobi). The start is the scaled warm start v = s v0, s = (b . v0) / (v0 . A v0): the
+// multiple of the last velocity nearest the solution in the energy norm (the 1-D Galerkin
+// projection onto span{v0}). Motion that settles decays geometrically from step to step, and v0
+// itself then overshoots the solution by the decay factor (right after a cut it was a worse start
+// than zero); s = 1 for steady motion, s = 0 when v0 points away from the solution.
 //
 // The matrix is assembled row by row: each node row sums the blocks of its incident tetrahedra in
 // slot order, so both threads write disjoint rows and every reduction is over fixed chunks in a
@@ -12,10 +17,11 @@
 //
 // Topology changes: the cutter edits the TetMesh and then notifies the model. Nothing is rebuilt
 // globally; at the next step only the rows of the vertices of added or removed tetrahedra are
-// rebuilt (their sparsity pattern and lumped mass). New tetrahedra compute their rest data from
-// their (interpolated) rest vertices and their region's material, and start their rotation from
-// the tetrahedron they descend from (mesh.parent). See fem/element.hpp for the element models,
-// prestress and the sliver remedy.
+// rebuilt (their sparsity pattern and lumped mass), and the nodes a cut created join the coarse
+// aggregate of their first parent (the coarse factorisation is kept: see fem/two_level.hpp). New tetrahedra
+// compute their rest data from their (interpolated) rest vertices and their region's material, and start
+// their rotation from the tetrahedron they descend from (mesh.parent). See fem/element.hpp for the element
+// models, prestress and the sliver remedy.
 //
 // Thread ownership: a TissueModel and its mesh belong to the simulation thread; calls are not
 // thread-safe. The model uses its own worker threads (OpenMP) inside step() only.
@@ -27,10 +33,17 @@
 #include <vector>
 
 #include "cutting/mesh.hpp"
+#include "fem/block_matrix.hpp"
 #include "fem/element.hpp"
 #include "fem/material.hpp"
+#include "fem/two_level.hpp"
 
 namespace scalpel {
+
+enum class Preconditioner {
+  BlockJacobi,  // 3x3 diagonal blocks of A
+  TwoLevel,     // rigid-mode aggregates + block-Jacobi smoothing (fem/two_level.hpp)
+};
 
 struct TissueSettings {
   TissueKind kind = TissueKind::Corotational;
@@ -39,6 +52,16 @@ struct TissueSettings {
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
   double sliver_quality = 0.05;          // q_min of the sliver remedy (element.hpp) [-]
   int threads = 2;                       // worker threads in step()
+  Preconditioner preconditioner = Preconditioner::TwoLevel;
+  // With TwoLevel, CG starts on block-Jacobi and restarts from its iterate with the two-level cycle
+  // after this many iterations (0: the cycle from the start, as for any step whose warm start has a
+  // relative residual above 0.5).
+  int two_level_after = 12;
+  // The two-level preconditioner is rebuilt (aggregates and coarse factorisation) at the step after
+  // one that needed more two-level iterations than this, or after the step in which cuts brought the
+  // nodes added since the last build above coarse_rebuild_fraction of the active nodes.
+  int coarse_rebuild_iterations = 40;
+  double coarse_rebuild_fraction = 0.1;
 };
 
 enum class StepStatus {
@@ -50,10 +73,13 @@ enum class StepStatus {
 struct StepStats {
   StepStatus status = StepStatus::Converged;
   int cg_iterations = 0;
-  double residual = 0;        // final ||r|| / ||b|| [-]
-  double elastic_energy = 0;  // at the start of the step [J]
-  double kinetic_energy = 0;  // at the end of the step [J]
-  std::string message;        // why, when status == NonFinite
+  int cycle_iterations = 0;           // of those, preconditioned by the two-level cycle
+  double initial_residual = 0;        // ||b - A v|| / ||b|| of the warm start [-]
+  double residual = 0;                // final ||r|| / ||b|| [-]
+  bool preconditioner_built = false;  // the two-level preconditioner was (re)built in this step
+  double elastic_energy = 0;          // at the start of the step [J]
+  double kinetic_energy = 0;          // at the end of the step [J]
+  std::string message;                // why, when status == NonFinite
 };
 
 class TissueModel {
@@ -99,12 +125,6 @@ class TissueModel {
     int local;                           // the node's local vertex index a in the tet
     std::array<std::uint32_t, 4> block;  // position in the row of the column of vertex b
   };
-  struct Row {
-    std::vector<std::uint32_t> cols;  // sorted node slots, including the node itself
-    std::vector<Mat3> blocks;         // A(row, cols[k])
-    std::vector<Entry> entries;       // sorted by tet slot
-    std::uint32_t diag = 0;
-  };
 
   void grow();
   void mark_tet_nodes(std::uint32_t t);
@@ -112,7 +132,7 @@ class TissueModel {
   void rebuild_row(std::uint32_t i);
   void evaluate_elements(double& energy);
   void assemble(double dt);
-  void multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y, double& dot_xy);
+  double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
 
   TetMesh& mesh_;
   std::vector<Material> materials_;
@@ -132,11 +152,15 @@ class TissueModel {
   std::vector<std::uint8_t> fixed_, active_, dirty_;
   std::vector<Vec3> external_;
   std::vector<double> mass_;
-  std::vector<Row> rows_;
+  std::vector<BlockRow> rows_;               // A, one block row per node slot
+  std::vector<std::vector<Entry>> entries_;  // per node slot: incident tets, sorted by slot
+  TwoLevelPreconditioner coarse_;
+  bool coarse_stale_ = true;                                   // rebuild before the next solve
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> born_;  // (node, first parent) since the last step
   std::vector<std::uint32_t> dirty_list_;
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
-  std::vector<Vec3> b_, v_, r_, z_, p_, q_;
+  std::vector<Vec3> b_, v_, r_, z_, p_, q_, t_;
   std::vector<Mat3> diag_inverse_;
   std::vector<double> partial_;
 };

@@ -1,0 +1,28 @@
+#include "fem/block_matrix.hpp"
+
+#include "fem/parallel.hpp"
+
+namespace scalpel {
+
+double multiply(std::span<const BlockRow> a, std::span<const std::uint8_t> active, const std::vector<Vec3>& x,
+                std::vector<Vec3>& y, std::vector<double>& partial, int threads) {
+  const std::size_t nn = a.size();
+  parallel::for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+    double d = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!active[i]) {
+        y[i].setZero();
+        continue;
+      }
+      const BlockRow& row = a[i];
+      Vec3 s = Vec3::Zero();
+      for (std::size_t k = 0; k < row.cols.size(); ++k) s.noalias() += row.blocks[k] * x[row.cols[k]];
+      y[i] = s;
+      d += x[i].dot(s);
+    }
+    partial[c] = d;
+  });
+  return parallel::sum(partial, parallel::chunk_count(nn));
+}
+
+}  // namespace scalpel
