@@ -16,6 +16,7 @@ struct CutEngine::CutNode {
   std::array<std::uint32_t, 3> key{};  // sorted coarse node slots; an edge has key[2] = kInvalidIndex
   Vec3 bary = Vec3::Zero();            // weights of the key nodes
   Vec3 placed_bary = Vec3::Zero();     // the weights its copies were last placed at
+  std::uint32_t into = kInvalidIndex;  // entry node: the coarse tetrahedron the tip went into
   bool placed = false;
   Vec3 sample_sum = Vec3::Zero();  // mid node: sum of sampled ENP barycentrics (§5.2)
   int samples = 0;
@@ -672,11 +673,20 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 
   // Tip pierces: entry nodes (§4.1). A pierce of a face that holds an entry node from an earlier
   // step is the tip leaving by the face it came in by (§5.1, handled below).
-  std::set<Key3> tip_left;
+  // Which tetrahedron the tip goes into through each pierced face (kInvalidIndex: out of the mesh).
+  std::map<Key3, std::uint32_t> pierced;
   for (const auto& p : sweep_result_.pierces) {
-    const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
-    if (entry_nodes_.count(k)) {
-      if (!changed_faces.count(k)) tip_left.insert(k);
+    const auto [it, fresh] =
+        pierced.try_emplace(sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), kInvalidIndex);
+    if (p.entering) it->second = p.tet;
+  }
+  std::set<Key3> tip_left;
+  for (const auto& [k, into] : pierced) {
+    const auto known = entry_nodes_.find(k);
+    if (known != entry_nodes_.end()) {
+      // Back the way it came: the tip leaves by the face it entered. The same way again is the face
+      // moving with the tissue past a tip that already went through it: nothing happens.
+      if (cut_nodes_[known->second].into != into) tip_left.insert(k);
       continue;
     }
     const std::uint32_t mid = face_node(mid_nodes_, k);
@@ -684,8 +694,13 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
       continue;
     }
+    const auto& p = *std::find_if(
+        sweep_result_.pierces.begin(), sweep_result_.pierces.end(),
+        [&](const FacePierce& x) { return sorted_key(x.nodes[0], x.nodes[1], x.nodes[2]) == k; });
     const Vec3 w = clamp_interior(face_bary(k, p.point), options_.min_face_bary);
-    entry_nodes_.emplace(k, create_cut_node(CutNode::Kind::Entry, k, w));
+    const std::uint32_t id = create_cut_node(CutNode::Kind::Entry, k, w);
+    cut_nodes_[id].into = into;
+    entry_nodes_.emplace(k, id);
     changed_faces.insert(k);
     positioned_faces.insert(k);
     ++stats.face_pierces;
@@ -716,10 +731,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     positioned_faces.insert(k);
   }
   std::set<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
-  std::vector<Key3> left_faces;
   for (const Key3& k : crossing_faces_) {
     if (crossing_now.count(k)) continue;
-    left_faces.push_back(k);
     cut_nodes_[mid_nodes_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
     positioned_faces.insert(k);
     for (const std::uint32_t t : coarse_tets_around(k)) left_faces_tets.insert(t);
@@ -730,7 +743,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 
   // Tremble at faces (§5.1, the dotted transitions O1->O3, O2->O1, A2->A1, B2->B1, F2->F1): a tip
   // that leaves by the face it entered before any edge of that face is cut undoes the face's
-  // subdivision; so does a blade that stops crossing a face none of whose edges it cut.
+  // subdivision.
   for (const Key3& k : tip_left) {
     const std::uint32_t mid = face_node(mid_nodes_, k);
     if (face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].copies.size() > 1)) {
@@ -738,15 +751,6 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       continue;
     }
     undo_face(k, !crossing_faces_.count(k));
-    changed_faces.insert(k);
-    ++stats.undone_faces;
-  }
-  for (const Key3& k : left_faces) {
-    const std::uint32_t id = face_node(mid_nodes_, k);
-    if (id == kInvalidIndex || entry_nodes_.count(k) || face_has_edge_node(k) ||
-        cut_nodes_[id].copies.size() > 1)
-      continue;
-    undo_face(k, true);
     changed_faces.insert(k);
     ++stats.undone_faces;
   }

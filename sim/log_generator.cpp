@@ -124,7 +124,16 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
     if (t < t_cut) {
       height = m.approach_height - (m.approach_height + depth) * min_jerk((t - t_plunge) / d_plunge);
     } else if (t < t_lift) {
-      s = path.length() * min_jerk((t - t_cut) / d_cut);
+      const double u = (t - t_cut) / d_cut;
+      s = path.length() * min_jerk(u);
+      // Pull-backs: a sin^2 bump of height pull_back over a tenth of the cut, steep enough that the
+      // blade runs backwards for a while, then forward over the same path again.
+      for (const double at : m.pull_back_at) {
+        const double w = (u - at) / 0.1;
+        if (m.pull_back > 0.0 && std::abs(w) < 0.5)
+          s -= m.pull_back * std::pow(std::cos(std::numbers::pi * w), 2);
+      }
+      s = std::clamp(s, 0.0, path.length());
       height = -depth;
     } else {
       s = path.length();
@@ -138,7 +147,15 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
     if (q.w() < 0) q.coeffs() = -q.coeffs();
     q = Eigen::Quaterniond(round_to(q.w(), 1e9), round_to(q.x(), 1e9), round_to(q.y(), 1e9),
                            round_to(q.z(), 1e9));
-    const Vec3 tip = path.point(s) + height * up;
+    Vec3 tip = path.point(s) + height * up;
+    if (m.tremble > 0.0 && t > t_plunge && t < t_hold) {
+      // Fades in and out over the plunge and the lift, so the tool rests at both ends.
+      const double fade =
+          std::min(min_jerk((t - t_plunge) / d_plunge), 1.0 - min_jerk((t - t_lift) / d_plunge));
+      const double w = 2 * std::numbers::pi * m.tremble_frequency * t;
+      tip += 0.5 * m.tremble * std::min(fade, 1.0) *
+             Vec3(std::sin(w + 0.3), std::sin(1.13 * w + 1.9), std::sin(0.87 * w + 4.1));
+    }
     const Vec3 origin = tip - q * scenario.tool.blade_tip;
 
     ToolSample sample;
@@ -155,6 +172,8 @@ PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion
   std::ostringstream motion;
   motion << "tilt " << m.tilt * 180.0 / std::numbers::pi << " deg, depth " << cut_depth(task, m)
          << " m, mean cut speed " << m.cut_speed << " m/s";
+  if (m.tremble > 0.0) motion << ", tremble " << m.tremble << " m at " << m.tremble_frequency << " Hz";
+  if (m.pull_back > 0.0) motion << ", pull-back " << m.pull_back << " m";
   std::ostringstream rate;
   rate << scenario.device.rate << " Hz";
   return {{"generator", "scalpelsim make-log"},
@@ -165,9 +184,9 @@ PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion
           {"units", "t [s], x y z [m], quaternion tool->world (w, x, y, z)"}};
 }
 
-void write_task_log(const Scenario& scenario, const std::string& out_path) {
-  const auto samples = generate_task_log(scenario);
-  PoseLogWriter writer(out_path, task_log_metadata(scenario));
+void write_task_log(const Scenario& scenario, const std::string& out_path, const IncisionMotion& motion) {
+  const auto samples = generate_task_log(scenario, motion);
+  PoseLogWriter writer(out_path, task_log_metadata(scenario, motion));
   for (const auto& s : samples) writer.write(s);
   writer.flush();
 }

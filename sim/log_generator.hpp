@@ -24,6 +24,14 @@ struct IncisionMotion {
   double hold = 0.1;                            // [s] at rest before and after
   double depth = -1.0;                          // [m] tip depth; < 0: middle of the task's depth range
   double corner_radius = 0.002;                 // [m] arc length over which the heading turns at a corner
+  // Hand tremor (paper section 5): a smooth oscillation of the tool position in all three directions
+  // while the blade is in the tissue, three incommensurate sines around `tremble_frequency`.
+  double tremble = 0.0;            // [m] peak-to-peak excursion per axis; 0: none
+  double tremble_frequency = 9.0;  // [Hz] physiological tremor is 8-12 Hz
+  // Pulling back and re-cutting (section 5.2): at each of these fractions of the path the blade
+  // goes back along it by `pull_back` (a smooth bump on the arc length), then cuts forward again.
+  double pull_back = 0.0;  // [m]; 0: none
+  std::vector<double> pull_back_at{0.35, 0.7};
 };
 
 // The samples, at the scenario's haptic rate (device.rate). The skin surface is taken to face +z
@@ -36,7 +44,7 @@ struct IncisionMotion {
 // The metadata written with a generated log.
 [[nodiscard]] PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion& motion = {});
 
-// Writes generate_task_log(scenario) to `out_path` (what `scalpelsim make-log` does).
-void write_task_log(const Scenario& scenario, const std::string& out_path);
+// Writes generate_task_log(scenario, motion) to `out_path` (what `scalpelsim make-log` does).
+void write_task_log(const Scenario& scenario, const std::string& out_path, const IncisionMotion& motion = {});
 
 }  // namespace scalpel

@@ -144,9 +144,9 @@ int cmd_inspect(const std::string& path, bool as_json) {
   return report.ok() ? 0 : 1;
 }
 
-int cmd_make_log(const std::string& scenario_path, const std::string& out) {
+int cmd_make_log(const std::string& scenario_path, const std::string& out, const IncisionMotion& motion) {
   const Scenario scenario = load_scenario(scenario_path);
-  write_task_log(scenario, out);
+  write_task_log(scenario, out, motion);
   std::cout << "wrote " << out << "\n";
   return 0;
 }
@@ -243,6 +243,11 @@ int main(int argc, char** argv) {
       app.add_subcommand("make-log", "Generate the pose log of a scenario's task (the bundled log)");
   make_log_cmd->add_option("scenario", scenario, "Scenario YAML with a task")->required();
   make_log_cmd->add_option("--out", make_log_out, "Pose log to write")->required();
+  IncisionMotion motion;
+  make_log_cmd->add_option("--tremble", motion.tremble, "Hand tremor, peak-to-peak per axis [m]")
+      ->check(CLI::NonNegativeNumber);
+  make_log_cmd->add_option("--pull-back", motion.pull_back, "Pull back and re-cut this far, twice [m]")
+      ->check(CLI::NonNegativeNumber);
 
   std::string profiles_dir = bundled("config/devices").string();
   bool all_devices = false;
@@ -270,7 +275,7 @@ int main(int argc, char** argv) {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress);
     if (*validate_cmd) return cmd_validate(scenario);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
-    if (*make_log_cmd) return cmd_make_log(scenario, make_log_out);
+    if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
     if (*record_cmd) return cmd_record(rec);
   } catch (const InputError& e) {

@@ -1,8 +1,10 @@
 # Replays the bundled default scenario and log twice and requires identical outputs: mesh.vtu byte
 # for byte, report.json without its wall-clock timings.
-#   -DSCALPELSIM=<program>  -DOUT=<folder>
+#   -DSCALPELSIM=<program>  -DOUT=<folder>  [-DLOG=<pose log>, default: the scenario's]
+#   [-DMIN_BACKWARD=<n>: require at least n backward crossings]
 foreach(run a b)
-  execute_process(COMMAND ${SCALPELSIM} replay --no-progress --out ${OUT}/${run} RESULT_VARIABLE code
+  execute_process(COMMAND ${SCALPELSIM} replay config/scenarios/skin_incision.yaml ${LOG} --no-progress
+                          --out ${OUT}/${run} RESULT_VARIABLE code
                   OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT code EQUAL 0)
     message(FATAL_ERROR "replay ${run} failed (${code}):\n${out}${err}")
@@ -25,4 +27,9 @@ string(JSON ok GET "${report_a}" invariants volume)
 if(edges LESS 1 OR NOT ok)
   message(FATAL_ERROR "the default replay cut nothing or broke an invariant")
 endif()
-message(STATUS "two replays identical; ${edges} edges cut")
+string(JSON backward GET "${report_a}" cutting backward_crossings)
+string(JSON undone GET "${report_a}" cutting undone_face_subdivisions)
+if(DEFINED MIN_BACKWARD AND backward LESS MIN_BACKWARD)
+  message(FATAL_ERROR "${backward} backward crossings, expected at least ${MIN_BACKWARD}")
+endif()
+message(STATUS "two replays identical; ${edges} edges cut, ${backward} backward crossings, ${undone} face subdivisions undone")

@@ -59,6 +59,42 @@ TEST_CASE("log generator: the bundled log is reproducible byte for byte") {
   fs::remove_all(dir);
 }
 
+// The second bundled log: the same incision with hand tremor, two pull-backs and re-cuts.
+IncisionMotion trembling_motion() {
+  IncisionMotion m;
+  m.tremble = 0.0005;
+  m.pull_back = 0.004;
+  return m;
+}
+
+TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible byte for byte") {
+  const Scenario s = bundled();
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_tremble";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path out = dir / "skin_incision_tremble.csv";
+  write_task_log(s, out.string(), trembling_motion());
+  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision.yaml --tremble 0.0005
+  // --pull-back 0.004 --out config/logs/skin_incision_tremble.csv
+  const std::string bundled_bytes =
+      read_bytes(fs::path(SCALPEL_SOURCE_DIR) / "config/logs/skin_incision_tremble.csv");
+  REQUIRE_FALSE(bundled_bytes.empty());
+  CHECK(read_bytes(out) == bundled_bytes);
+  // The blade runs backwards along the path while it is in the tissue (the pull-backs), and the
+  // tremor moves it across the path.
+  const auto made = generate_task_log(s, trembling_motion());
+  int reversals = 0;
+  double across = 0;
+  for (std::size_t k = 1; k < made.size(); ++k) {
+    reversals += made[k].position.x() < made[k - 1].position.x() && made[k].position.z() < 0.0 ? 1 : 0;
+    across = std::max(across, std::abs(made[k].position.y()));
+  }
+  CHECK(reversals > 100);
+  CHECK(across > 0.0001);
+  CHECK(across <= 0.00025 + 1e-9);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("log generator: the bundled log is valid and performs the task") {
   const Scenario s = bundled();
   PoseLogReader reader(s.log->string());
