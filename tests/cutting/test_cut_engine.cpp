@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "cutting/cut_engine.hpp"
 #include "cutting/generators.hpp"
@@ -271,4 +272,42 @@ TEST_CASE("example 4 (Fig. 11): a tetrahedron cut over one edge without a pierce
   CHECK(cutter.state_label_of(0) == "A0");
   CHECK(cutter.totals().transitions.at("O0->A0") == 1);
   CHECK(mesh.tet_count() == 6);  // one edge, two crossed faces: the in-progress pattern of section 4.1
+}
+
+TEST_CASE(
+    "pulling back (section 5.2, Fig. 10): a face's mid node settles at the average of its sampled "
+    "trajectory") {
+  TetMesh mesh;
+  const NodeId a = mesh.add_node(Vec3(0, 0, 0)), b = mesh.add_node(Vec3(1, 0, 0)),
+               c = mesh.add_node(Vec3(0, 1, 0)), d = mesh.add_node(Vec3(0, 0, 1));
+  mesh.add_tet({a, b, c, d});
+  CutEngine cutter(mesh);
+  // A vertical blade at x = 0.3 through the bottom face ABC (z = 0): in over edge AB, forward to a
+  // turning point at y = 0.513, back and out over AB again.
+  auto blade = [](double y) { return BladePose{Vec3(0.3, y, -0.5), Vec3(0.3, y, 0.3), Vec3::Zero()}; };
+  std::vector<double> ys;
+  for (int k = 0; k <= 12; ++k) ys.push_back(-0.087 + 0.05 * k);
+  for (int k = 11; k >= 0; --k) ys.push_back(-0.087 + 0.05 * k);
+  cutter.place(blade(ys[0]));
+  double sum = 0;
+  int samples = 0;
+  for (std::size_t i = 1; i < ys.size(); ++i) {
+    cutter.step(blade(ys[i]));
+    require_valid(mesh, 1.0 / 6.0);
+    if (ys[i] > 0) {  // the blade crosses face ABC at (0.3, y, 0): one sample of the ENP
+      sum += ys[i];
+      ++samples;
+    }
+  }
+  REQUIRE(samples == 21);
+  // The mid node of ABC: the created node inside the face (off edge AB, which holds y = 0).
+  std::vector<Vec3> inside;
+  for (const NodeId n : mesh.nodes())
+    if (n.index > 3 && mesh.rest(n).z() == 0.0 && mesh.rest(n).y() > 1e-9) inside.push_back(mesh.rest(n));
+  REQUIRE(inside.size() == 1);
+  CHECK(inside[0].x() == doctest::Approx(0.3).epsilon(1e-12));
+  CHECK(inside[0].y() == doctest::Approx(sum / samples).epsilon(1e-12));
+  // Not the face centre, and not the turning point.
+  CHECK(std::abs(inside[0].y() - 1.0 / 3.0) > 0.05);
+  CHECK(std::abs(inside[0].y() - 0.513) > 0.2);
 }
