@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
@@ -310,4 +311,43 @@ TEST_CASE(
   // Not the face centre, and not the turning point.
   CHECK(std::abs(inside[0].y() - 1.0 / 3.0) > 0.05);
   CHECK(std::abs(inside[0].y() - 0.513) > 0.2);
+}
+
+TEST_CASE(
+    "several incisions: two parallel through-cuts sever a slab, a crossing cut splits all three pieces") {
+  for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five}) {
+    CAPTURE(static_cast<int>(split));
+    TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
+    CutEngine cutter(mesh);
+    auto along_y = [](double x, double y) {
+      return BladePose{Vec3(x, y, 1.5), Vec3(x, y, -0.5), Vec3::Zero()};
+    };
+    for (const double x : {0.37, 0.83}) {
+      cutter.place(along_y(x, -0.5));
+      for (int k = 1; k <= 200; ++k) {
+        cutter.step(along_y(x, -0.5 + 0.01 * k));
+        require_valid(mesh, 1.0);
+      }
+    }
+    REQUIRE(connected_components(mesh).count() == 3);  // the slab x > 0.83 is severed
+    // Across both earlier cuts and into the severed slab.
+    cutter.place(along_y(-0.5, 0.41));
+    for (int k = 1; k <= 200; ++k) {
+      cutter.step(along_y(-0.5 + 0.01 * k, 0.41));
+      require_valid(mesh, 1.0);
+    }
+    const auto comps = connected_components(mesh);
+    REQUIRE(comps.count() == 6);
+    std::vector<double> expect;
+    for (const double w : {0.37, 0.46, 0.17})
+      for (const double h : {0.41, 0.59}) expect.push_back(w * h);
+    std::sort(expect.begin(), expect.end());
+    std::vector<double> v = comps.rest_volume;
+    std::sort(v.begin(), v.end());
+    // Where two cuts cross one tetrahedron its one-level subdivision cannot follow both (the
+    // recursive continuation of section 6 is not there yet): pieces are exact away from the crossing
+    // lines, within a few percent of a cell's volume there.
+    for (std::size_t i = 0; i < 6; ++i) CHECK(std::abs(v[i] - expect[i]) < 0.015);
+    CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
+  }
 }
