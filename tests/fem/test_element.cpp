@@ -73,6 +73,14 @@ Material tissue(double prestress) {
   return m;
 }
 
+// A symmetric positive definite stretch near 1.5 I, entries perturbed by u.
+Mat3 random_stretch(std::mt19937& rng, std::uniform_real_distribution<double>& u) {
+  Mat3 s;
+  s << 1 + u(rng), u(rng), u(rng), 0, 1 + u(rng), u(rng), 0, 0, 1 + u(rng);
+  s = 0.5 * (s + s.transpose()).eval();
+  return s + Mat3::Identity();
+}
+
 }  // namespace
 
 TEST_CASE("extract_rotation finds the rotation of the polar decomposition") {
@@ -80,10 +88,7 @@ TEST_CASE("extract_rotation finds the rotation of the polar decomposition") {
   std::uniform_real_distribution<double> u(-0.4, 0.4);
   for (int k = 0; k < 50; ++k) {
     const Mat3 r = random_rotation(rng);
-    Mat3 s;
-    s << 1 + u(rng), u(rng), u(rng), 0, 1 + u(rng), u(rng), 0, 0, 1 + u(rng);
-    s = 0.5 * (s + s.transpose()).eval();
-    s += Mat3::Identity();  // symmetric positive definite
+    const Mat3 s = random_stretch(rng, u);
     Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
     extract_rotation(r * s, q);
     CHECK((q.toRotationMatrix() - r).norm() < 1e-9);
@@ -97,10 +102,7 @@ TEST_CASE("extract_rotation converges quadratically from a nearby rotation") {
   std::uniform_real_distribution<double> u(-0.3, 0.3);
   for (int k = 0; k < 50; ++k) {
     const Mat3 r = random_rotation(rng);
-    Mat3 s;
-    s << 1 + u(rng), u(rng), u(rng), 0, 1 + u(rng), u(rng), 0, 0, 1 + u(rng);
-    s = 0.5 * (s + s.transpose()).eval();
-    s += Mat3::Identity();
+    const Mat3 s = random_stretch(rng, u);
     const Eigen::Quaterniond exact(r);
     Eigen::Quaterniond q =
         Eigen::Quaterniond(Eigen::AngleAxisd(0.05, Vec3(u(rng), u(rng), 1).normalized())) * exact;

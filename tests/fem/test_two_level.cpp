@@ -145,17 +145,25 @@ TEST_CASE("two-level: aggregates cover the active nodes and the smoother weight 
   CHECK(c.pre.omega() <= 1);
 }
 
+namespace {
+
+// u . B w == w . B u and u . B u > 0 for `count` random pairs, B the cycle on `threads` threads.
+void check_symmetric_positive(const System& s, Cycle& c, int threads, unsigned seed, int count) {
+  std::mt19937 rng(seed);
+  for (int k = 0; k < count; ++k) {
+    const std::vector<Vec3> u = random_vector(s, rng), w = random_vector(s, rng);
+    const std::vector<Vec3> bu = c.apply(s, u, threads), bw = c.apply(s, w, threads);
+    CHECK(std::abs(dot(u, bw) - dot(w, bu)) <= 1e-10 * std::sqrt(dot(u, bu) * dot(w, bw)));
+    CHECK(dot(u, bu) > 0);
+  }
+}
+
+}  // namespace
+
 TEST_CASE("two-level: the cycle is symmetric positive definite") {
   const System s = make_system({6, 6, 2});
   Cycle c(s, 2);
-  std::mt19937 rng(3);
-  for (int k = 0; k < 10; ++k) {
-    const std::vector<Vec3> u = random_vector(s, rng), w = random_vector(s, rng);
-    const std::vector<Vec3> bu = c.apply(s, u, 2), bw = c.apply(s, w, 2);
-    const double uw = dot(u, bw), wu = dot(w, bu);
-    CHECK(std::abs(uw - wu) <= 1e-10 * std::sqrt(dot(u, bu) * dot(w, bw)));
-    CHECK(dot(u, bu) > 0);
-  }
+  check_symmetric_positive(s, c, 2, 3, 10);
 }
 
 TEST_CASE("two-level: the coarse correction is exact on the coarse space") {
@@ -198,13 +206,7 @@ TEST_CASE("two-level: a stale cycle extended by new nodes stays positive definit
   const System soft = make_system({6, 6, 2}, 0.2);
   const System s = make_system({6, 6, 2});
   Cycle c(soft, 1);
-  std::mt19937 rng(9);
-  for (int k = 0; k < 5; ++k) {
-    const std::vector<Vec3> u = random_vector(s, rng), w = random_vector(s, rng);
-    const std::vector<Vec3> bu = c.apply(s, u, 1), bw = c.apply(s, w, 1);
-    CHECK(std::abs(dot(u, bw) - dot(w, bu)) <= 1e-10 * std::sqrt(dot(u, bu) * dot(w, bw)));
-    CHECK(dot(u, bu) > 0);
-  }
+  check_symmetric_positive(s, c, 1, 9, 5);
   // A node extended into its parent's aggregate takes part in the coarse correction.
   const std::uint32_t parent = s.mesh.nodes().back().index;
   const auto node = static_cast<std::uint32_t>(s.a.size());
