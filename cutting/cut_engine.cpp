@@ -17,8 +17,7 @@ struct CutEngine::CutNode {
   Vec3 bary = Vec3::Zero();            // weights of the key nodes
   Vec3 placed_bary = Vec3::Zero();     // the weights its copies were last placed at
   std::uint32_t into = kInvalidIndex;  // entry node: the coarse tetrahedron the tip went into
-  bool placed = false;
-  Vec3 sample_sum = Vec3::Zero();  // mid node: sum of sampled ENP barycentrics (§5.2)
+  Vec3 sample_sum = Vec3::Zero();      // mid node: sum of sampled ENP barycentrics (§5.2)
   int samples = 0;
   bool crossing = false;             // mid node: the blade crosses the face now
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
@@ -211,27 +210,26 @@ std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, con
 
 // Places every copy of a cut node at its weights over the coarse nodes (DESIGN §3: the cut is
 // made in the current configuration and carried to the rest one by the same weights). The rest
-// position is the weighted one. In the current configuration a node that was placed before moves
-// by the change of its weights over the current corners: it keeps the displacement the tissue
-// gave it instead of snapping back onto the straight coarse face, which would strain its elements.
+// position is the weighted one. In the current configuration the node moves by the change of its
+// weights since it was last placed (or created), over the current corners: it keeps the
+// displacement the tissue gave it instead of snapping back onto the straight coarse face, which
+// would strain its elements.
 void CutEngine::place_cut_node(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
   const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
-  Vec3 r = Vec3::Zero(), x = Vec3::Zero(), dx = Vec3::Zero();
+  Vec3 r = Vec3::Zero(), dx = Vec3::Zero();
   for (int i = 0; i < count; ++i) {
     const NodeId p = mesh_.node_handle(n.key[static_cast<size_t>(i)]);
     r += n.bary[i] * mesh_.rest(p);
-    x += n.bary[i] * mesh_.position(p);
     dx += (n.bary[i] - n.placed_bary[i]) * mesh_.position(p);
   }
   for (const NodeId c : n.copies) {
     mesh_.set_rest(c, r);
-    mesh_.set_position(c, n.placed ? Vec3(mesh_.position(c) + dx) : x);
+    mesh_.set_position(c, mesh_.position(c) + dx);
     changes_.moved_nodes.push_back(c);
     changes_.touched_nodes.push_back(c.index);
   }
   n.placed_bary = n.bary;
-  n.placed = true;
 }
 
 // Where a mid node stands (§4.1, §5.2): on the blade while the blade crosses the face; afterwards
@@ -609,7 +607,6 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
 CutStepStats CutEngine::step(const BladePose& pose) {
   CutStepStats stats;
   changes_.clear();
-  removed_nodes_ = 0;
   if (!placed_) {
     place(pose);
     totals_.add(stats);
@@ -673,15 +670,17 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 
   // Tip pierces: entry nodes (§4.1). A pierce of a face that holds an entry node from an earlier
   // step is the tip leaving by the face it came in by (§5.1, handled below).
-  // Which tetrahedron the tip goes into through each pierced face (kInvalidIndex: out of the mesh).
-  std::map<Key3, std::uint32_t> pierced;
+  // Per pierced face: the tetrahedron the tip goes into (kInvalidIndex: out of the mesh) and the
+  // point.
+  std::map<Key3, std::pair<std::uint32_t, Vec3>> pierced;
   for (const auto& p : sweep_result_.pierces) {
     const auto [it, fresh] =
-        pierced.try_emplace(sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), kInvalidIndex);
-    if (p.entering) it->second = p.tet;
+        pierced.try_emplace(sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), kInvalidIndex, p.point);
+    if (p.entering) it->second.first = p.tet;
   }
   std::set<Key3> tip_left;
-  for (const auto& [k, into] : pierced) {
+  for (const auto& [k, pierce] : pierced) {
+    const auto [into, point] = pierce;
     const auto known = entry_nodes_.find(k);
     if (known != entry_nodes_.end()) {
       // Back the way it came: the tip leaves by the face it entered. The same way again is the face
@@ -694,10 +693,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
       continue;
     }
-    const auto& p = *std::find_if(
-        sweep_result_.pierces.begin(), sweep_result_.pierces.end(),
-        [&](const FacePierce& x) { return sorted_key(x.nodes[0], x.nodes[1], x.nodes[2]) == k; });
-    const Vec3 w = clamp_interior(face_bary(k, p.point), options_.min_face_bary);
+    const Vec3 w = clamp_interior(face_bary(k, point), options_.min_face_bary);
     const std::uint32_t id = create_cut_node(CutNode::Kind::Entry, k, w);
     cut_nodes_[id].into = into;
     entry_nodes_.emplace(k, id);
@@ -779,8 +775,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
 
   commit(affected, left_faces_tets, stats);
-  remove_undone_nodes();
-  stats.nodes_created = mesh_.node_count() + removed_nodes_ - nodes_before;
+  const std::size_t removed = remove_undone_nodes();
+  stats.nodes_created = mesh_.node_count() + removed - nodes_before;
   totals_.add(stats);
 
 #ifdef SCALPEL_VALIDATE
@@ -866,9 +862,10 @@ void CutEngine::undo_face(const Key3& k, bool mid) {
   }
 }
 
-// The real nodes of undone cut nodes, which no element uses any more after the rebuild.
-void CutEngine::remove_undone_nodes() {
-  if (undone_.empty()) return;
+// Removes the real nodes of undone cut nodes, which no element uses any more after the rebuild;
+// returns how many.
+std::size_t CutEngine::remove_undone_nodes() {
+  if (undone_.empty()) return 0;
   std::vector<NodeId> dead;
   for (const std::uint32_t id : undone_) {
     CutNode& n = cut_nodes_[id];
@@ -888,10 +885,8 @@ void CutEngine::remove_undone_nodes() {
       changes_.added_node_parents.erase(changes_.added_node_parents.begin() + static_cast<std::ptrdiff_t>(i));
     }
   std::erase_if(changes_.moved_nodes, is_dead);
-  for (const NodeId x : dead) {
-    mesh_.remove_node(x);
-    ++removed_nodes_;
-  }
+  for (const NodeId x : dead) mesh_.remove_node(x);
+  return dead.size();
 }
 
 // A new cut node with one real copy, interpolated from its coarse nodes with weights `bary`.
@@ -907,8 +902,7 @@ std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, cons
     p.weights[static_cast<size_t>(i)] = bary[i];
   }
   n.copies.push_back(add_node(p));
-  n.placed_bary = bary;
-  n.placed = true;
+  n.placed_bary = bary;  // the copy is interpolated at `bary` by add_node
   cut_nodes_.push_back(std::move(n));
   return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
 }

@@ -171,7 +171,7 @@ class CutEngine {
   // are removed once the step has rebuilt the elements around the face (§5.1).
   void undo_face(const std::array<std::uint32_t, 3>& key, bool mid);
   bool face_has_edge_node(const std::array<std::uint32_t, 3>& key) const;
-  void remove_undone_nodes();
+  std::size_t remove_undone_nodes();
   void update_face_position(std::uint32_t id);
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
@@ -206,7 +206,6 @@ class CutEngine {
   std::set<std::array<std::uint32_t, 3>> crossing_faces_;              // faces the blade crosses now
   std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
   std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed
-  std::size_t removed_nodes_ = 0;      // real nodes removed this step
   CutChanges changes_;
   // Scratch buffers of regroup(), kept to avoid allocating on every step.
   struct RegroupItem {

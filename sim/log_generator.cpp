@@ -153,7 +153,7 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
       const double fade =
           std::min(min_jerk((t - t_plunge) / d_plunge), 1.0 - min_jerk((t - t_lift) / d_plunge));
       const double w = 2 * std::numbers::pi * m.tremble_frequency * t;
-      tip += 0.5 * m.tremble * std::min(fade, 1.0) *
+      tip += 0.5 * m.tremble * fade *
              Vec3(std::sin(w + 0.3), std::sin(1.13 * w + 1.9), std::sin(0.87 * w + 4.1));
     }
     const Vec3 origin = tip - q * scenario.tool.blade_tip;
