@@ -247,8 +247,8 @@ struct RunStats {
   std::size_t trajectories = 0, steps = 0, transitions = 0, edges_cut = 0, backward = 0, recrossed = 0;
 };
 
-// Runs one trajectory on a copy of the scene's mesh, checking invariants 1-5 after every step.
-// Returns the engine's totals; `final_mesh` gets the mesh.
+// Runs one trajectory on a copy of the scene's mesh, checking invariants 1-5 after every step, and
+// adds its counts to `stats`.
 void run_checked(const Scene& s, const std::vector<Sample>& samples, RunStats& stats,
                  const std::string& what) {
   TetMesh mesh = s.mesh;

@@ -373,15 +373,29 @@ TEST_CASE("a NaN stops the step and keeps the last good state") {
   CHECK(m.positions() != x);
 }
 
+namespace {
+
+// A 3 cm x 3 cm slab: 2 mm of skin over 4 mm of fat, cells x cells in the plane.
+TetMesh skin_fat_slab(int cells) {
+  return make_slab({.size_x = 0.03,
+                    .size_y = 0.03,
+                    .cells = {cells, cells},
+                    .layers = {{"skin", 0.002, 2}, {"fat", 0.004, 2}}});
+}
+
+std::vector<Material> prestressed(std::size_t regions, double lambda0) {
+  std::vector<Material> mats(regions);
+  for (Material& mat : mats) mat.prestress = lambda0;
+  return mats;
+}
+
+}  // namespace
+
 TEST_CASE("the step is bit-identical run to run and for any thread count") {
   std::vector<std::vector<Vec3>> results;
   for (const int threads : {1, 2, 2}) {
-    TetMesh m = make_slab({.size_x = 0.03,
-                           .size_y = 0.03,
-                           .cells = {12, 12},
-                           .layers = {{"skin", 0.002, 2}, {"fat", 0.004, 2}}});
-    std::vector<Material> mats(2);
-    for (Material& mat : mats) mat.prestress = 1.1;
+    TetMesh m = skin_fat_slab(12);
+    const std::vector<Material> mats = prestressed(2, 1.1);
     TissueModel model(m, mats, {.threads = threads});
     fix_nodes(m, model, [](const Vec3& x) { return std::abs(x.z() + 0.006) < 1e-12; });
     int cycles = 0;
@@ -398,12 +412,8 @@ TEST_CASE("the step is bit-identical run to run and for any thread count") {
 TEST_CASE("after an incision the two-level preconditioner needs far fewer CG iterations") {
   std::vector<StepStats> after;
   for (const Preconditioner pre : {Preconditioner::BlockJacobi, Preconditioner::TwoLevel}) {
-    TetMesh m = make_slab({.size_x = 0.03,
-                           .size_y = 0.03,
-                           .cells = {16, 16},
-                           .layers = {{"skin", 0.002, 2}, {"fat", 0.004, 2}}});
-    std::vector<Material> mats(2);
-    for (Material& mat : mats) mat.prestress = 1.1;
+    TetMesh m = skin_fat_slab(16);
+    const std::vector<Material> mats = prestressed(2, 1.1);
     TissueModel model(m, mats, {.preconditioner = pre, .two_level_after = 0});
     fix_nodes(m, model, [](const Vec3& x) { return std::abs(x.z() + 0.006) < 1e-12; });
     for (int k = 0; k < 20; ++k) model.step(1.0 / 60);
