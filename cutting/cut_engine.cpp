@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 #include <set>
 #include <stdexcept>
@@ -22,7 +23,8 @@ struct CutEngine::CutNode {
   bool crossing = false;             // mid node: the blade crosses the face now
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
-  Vec3 sheet_normal = Vec3::Zero();  // edge node: normal of the swept surface where it was cut
+  Vec3 sheet_normal = Vec3::Zero();  // normal of the swept surface where it was cut (last sample)
+  bool retired = false;              // its component was promoted (§6): no unit refers to it
   std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
   using GroupEntry = CutNodeGroup;
   std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
@@ -48,6 +50,10 @@ void CutTotals::add(const CutStepStats& s) {
   recrossed_faces += s.recrossed_faces;
   face_pierces += s.face_pierces;
   undone_faces += s.undone_faces;
+  recursions += s.recursions;
+  promoted_tets += s.promoted_tets;
+  recursion_fallbacks += s.recursion_fallbacks;
+  max_recursion_depth = std::max(max_recursion_depth, s.recursion_depth);
   tets_created += s.tets_created;
   tets_removed += s.tets_removed;
   nodes_created += s.nodes_created;
@@ -144,7 +150,6 @@ void split_edge(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t p
 CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
     : mesh_(mesh),
       coarse_(mesh),
-      coarse_nodes_(mesh.node_capacity()),
       options_(options),
       table_(options.table ? *options.table : default_cut_table()),
       coarse_volume_(mesh.total_rest_volume()) {
@@ -152,6 +157,9 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
   (void)canonicalize({});  // builds the canonical-state table now, not in the first cut step
   live_to_coarse_.resize(mesh.tet_capacity());
   std::iota(live_to_coarse_.begin(), live_to_coarse_.end(), 0u);
+  unit_live_ = live_to_coarse_;
+  level_.assign(mesh.tet_capacity(), 0);
+  last_touch_.assign(mesh.tet_capacity(), 0);
 }
 
 CutEngine::~CutEngine() = default;
@@ -159,13 +167,14 @@ CutEngine::~CutEngine() = default;
 void CutEngine::refit() {
   auto& x = coarse_.positions();
   const auto& live = mesh_.positions();
-  std::copy(live.begin(), live.begin() + static_cast<std::ptrdiff_t>(coarse_nodes_), x.begin());
+  std::copy(live.begin(), live.begin() + static_cast<std::ptrdiff_t>(x.size()), x.begin());
   sweep_->refit();
 }
 
 void CutEngine::place(const BladePose& pose) {
   blade_ = pose;
   placed_ = true;
+  stroke_start_ = step_count_ + 1;
 }
 
 std::uint32_t CutEngine::coarse_of(TetId live) const {
@@ -556,7 +565,7 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
     auto [it, fresh] = cut_tets_.try_emplace(t);
     CoarseTet& c = it->second;
     if (fresh) {
-      const TetId live = mesh_.tet_handle(t);
+      const TetId live = mesh_.tet_handle(unit_live_[t]);
       c.live = {live};
       c.real = {mesh_.tet_nodes(live)};
       ++totals_.coarse_tets_cut;
@@ -612,9 +621,20 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     totals_.add(stats);
     return stats;
   }
-  sweep_->sweep(blade_, pose, sweep_result_);
   const BladePose prev = blade_;
+  sweep_->sweep(prev, pose, sweep_result_);
+  // Recursive continuation (§6): where the sweep reaches a component the basic machine cannot
+  // continue, its sub-tetrahedra become units and collision runs again on them. Each pass goes one
+  // level deeper in the components it promotes; the depth bound ends the loop.
+  std::set<std::uint32_t> refused;
+  for (int pass = 0; pass <= options_.max_recursion_depth; ++pass) {
+    const std::set<std::uint32_t> units = recursive_units(prev, pose);
+    if (units.empty() || !promote(units, refused, stats)) break;
+    sweep_->sweep(prev, pose, sweep_result_);
+  }
   blade_ = pose;
+  ++step_count_;
+  for (const std::uint32_t t : sweep_result_.tets) last_touch_[t] = step_count_;
   stats.tets_touched = sweep_result_.tets.size();
 
   std::set<Key3> changed_faces;      // faces whose topology (mid or entry node) is new
@@ -722,6 +742,9 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     }
     n.crossing = true;
     n.bary = w;
+    const Vec3 normal =
+        (pose.tip - pose.back).cross((1.0 - c.s) * (pose.back - prev.back) + c.s * (pose.tip - prev.tip));
+    if (normal.squaredNorm() > 0) n.sheet_normal = normal;
     n.sample_sum += sample;
     ++n.samples;
     positioned_faces.insert(k);
@@ -940,6 +963,10 @@ double CutEngine::cut_surface_area() const {
     if (!(g & kCutBit)) return mesh_.positions()[static_cast<size_t>(g)];
     return mesh_.position(cut_nodes_[static_cast<size_t>(g & ~kCutBit)].copies[0]);
   };
+  for (const auto& f : retired_crack_faces_)
+    area += 0.5 * (mesh_.position(f[1]) - mesh_.position(f[0]))
+                      .cross(mesh_.position(f[2]) - mesh_.position(f[0]))
+                      .norm();
   for (const std::uint32_t k : keys)
     for (const auto& s : cut_tets_.at(k).subs)
       for (int f = 0; f < 4; ++f) {
@@ -954,6 +981,201 @@ double CutEngine::cut_surface_area() const {
             0.5 * (position(face[1]) - position(face[0])).cross(position(face[2]) - position(face[0])).norm();
       }
   return area;
+}
+
+bool CutEngine::same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
+                         double size) const {
+  const double on = old_normal.norm(), nn = normal.norm();
+  if (on == 0.0 || nn == 0.0) return (point - old_point).norm() <= options_.same_cut_distance * size;
+  const double cos_angle = std::abs(old_normal.dot(normal)) / (on * nn);
+  return cos_angle >= std::cos(options_.same_cut_angle_deg * std::numbers::pi / 180.0) &&
+         std::abs(old_normal.dot(point - old_point)) / on <= options_.same_cut_distance * size;
+}
+
+// The swept surface's normal at a face: its mid node's last sample, else one of its cut edges'.
+Vec3 CutEngine::face_sheet_normal(const Key3& k) const {
+  const std::uint32_t mid = face_node(mid_nodes_, k);
+  if (mid != kInvalidIndex && cut_nodes_[mid].sheet_normal.squaredNorm() > 0)
+    return cut_nodes_[mid].sheet_normal;
+  for (const auto& [a, b] : {std::pair{k[0], k[1]}, std::pair{k[1], k[2]}, std::pair{k[0], k[2]}}) {
+    const std::uint32_t e = edge_node(a, b);
+    if (e != kInvalidIndex && cut_nodes_[e].sheet_normal.squaredNorm() > 0) return cut_nodes_[e].sheet_normal;
+  }
+  return Vec3::Zero();
+}
+
+std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const BladePose& pose) const {
+  std::set<std::uint32_t> out;
+  const auto& x = coarse_.positions();
+  // Every cut unit around `key`, or only those whose subdivision is final.
+  auto add_units = [&](const Key3& key, bool only_complete) {
+    for (const std::uint32_t t : coarse_tets_around(key)) {
+      const auto it = cut_tets_.find(t);
+      if (it != cut_tets_.end() && (!only_complete || it->second.complete)) out.insert(t);
+    }
+  };
+  auto motion = [&](double s) { return (1.0 - s) * (pose.back - prev.back) + s * (pose.tip - prev.tip); };
+  const Vec3 blade = pose.tip - pose.back;
+  auto point_of = [&](const CutNode& n) {
+    Vec3 p = Vec3::Zero();
+    for (int i = 0; i < (n.kind == CutNode::Kind::Edge ? 2 : 3); ++i)
+      p += n.bary[i] * x[n.key[static_cast<size_t>(i)]];
+    return p;
+  };
+  auto face_size = [&](const Key3& k) {
+    return std::max({(x[k[0]] - x[k[1]]).norm(), (x[k[1]] - x[k[2]]).norm(), (x[k[0]] - x[k[2]]).norm()});
+  };
+  // A new cut on a face: a second surface there if the face is cut already, otherwise new only
+  // to units whose subdivision is final.
+  auto face_event = [&](const Key3& k, const Vec3& point, const Vec3& normal) {
+    const std::uint32_t mid = face_node(mid_nodes_, k);
+    if (mid == kInvalidIndex) {
+      add_units(k, true);
+      return;
+    }
+    const CutNode& m = cut_nodes_[mid];
+    if (same_cut(point_of(m), face_sheet_normal(k), point, normal, face_size(k))) return;
+    add_units(k, m.copies.size() == 1);  // an opened face cannot take a second surface at any level
+  };
+
+  for (const EdgeCut& e : sweep_result_.edges) {
+    if (!e.forward) continue;  // backward crossings cut nothing (Eq. 1)
+    const Key3 k = edge_key(e.a, e.b);
+    const std::uint32_t id = edge_node(e.a, e.b);
+    if (id == kInvalidIndex) {
+      add_units(k, true);
+      continue;
+    }
+    const CutNode& n = cut_nodes_[id];
+    if (n.registered) continue;  // Fig. 9: the crossing takes the registered node's place
+    if (!same_cut(point_of(n), n.sheet_normal, e.point, blade.cross(motion(e.s)), (x[e.a] - x[e.b]).norm()))
+      add_units(k, false);
+  }
+  for (const FacePierce& p : sweep_result_.pierces) {
+    const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
+    if (face_node(entry_nodes_, k) != kInvalidIndex) continue;  // the tip's own way back (§5.1)
+    const Vec3 dir = (1.0 - p.u) * (prev.tip - prev.back) + p.u * blade;
+    face_event(k, p.point, dir.cross(pose.tip - prev.tip));
+  }
+  for (const FaceCrossing& c : sweep_result_.crossings)
+    face_event(sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]), c.point, blade.cross(motion(c.s)));
+  return out;
+}
+
+std::vector<std::uint32_t> CutEngine::cut_component(std::uint32_t t) const {
+  std::vector<std::uint32_t> out{t};
+  std::set<std::uint32_t> seen{t}, nodes_seen;
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (const auto& sub : cut_tets_.at(out[i]).subs)
+      for (const GNode g : sub) {
+        if (!(g & kCutBit) || !nodes_seen.insert(static_cast<std::uint32_t>(g & ~kCutBit)).second) continue;
+        for (const std::uint32_t u : coarse_tets_around(cut_nodes_[static_cast<size_t>(g & ~kCutBit)].key))
+          if (cut_tets_.count(u) && seen.insert(u).second) out.push_back(u);
+      }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+NodeId CutEngine::unit_node(NodeId live) {
+  while (!coarse_.node_slot_alive(live.index)) (void)coarse_.add_node(Vec3::Zero());
+  const NodeId u = coarse_.node_handle(live.index);
+  coarse_.set_rest(u, mesh_.rest(live));
+  coarse_.set_position(u, mesh_.position(live));
+  return u;
+}
+
+// §6: a component of cut units is subdivided completely to the end state of its last valid state
+// (its current subdivision, which the blade has left), and its sub-tetrahedra, already live, become
+// units one level deeper. Its cut nodes become their corners, the interconnection nodes the next
+// level's cuts start from. The live mesh does not change; only the engine's units do.
+// Only earlier cuts continue so: a component the blade has touched in this stroke lately
+// (CutOptions::finished_after_steps), or one at the depth bound, keeps its one-level subdivision:
+// the fallback, which stays valid but cannot follow a second surface exactly. So within one stroke,
+// tremble and reversals are the basic machine's (§5); a stroke that reaches an earlier cut
+// continues it recursively.
+bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint32_t>& refused,
+                        CutStepStats& stats) {
+  bool any = false;
+  for (const std::uint32_t seed : units) {
+    if (refused.count(seed) || !cut_tets_.count(seed)) continue;
+    const std::vector<std::uint32_t> comp = cut_component(seed);
+    bool promotable = true, too_deep = false;
+    std::set<std::uint32_t> ids;
+    for (const std::uint32_t t : comp) {
+      too_deep |= level_[t] >= options_.max_recursion_depth;
+      for (const auto& sub : cut_tets_.at(t).subs)
+        for (const GNode g : sub)
+          if (g & kCutBit) ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
+    }
+    // An earlier cut: the blade has not touched it in this stroke, or not for a while.
+    for (const std::uint32_t t : comp)
+      promotable &=
+          last_touch_[t] + options_.finished_after_steps < step_count_ || last_touch_[t] < stroke_start_;
+    if (!promotable || too_deep) {
+      refused.insert(comp.begin(), comp.end());
+      if (promotable) ++stats.recursion_fallbacks;
+      continue;
+    }
+    // The crack faces stay part of the cut surface.
+    std::set<std::array<GNode, 3>> seen;
+    for (const std::uint32_t t : comp) {
+      const CoarseTet& c = cut_tets_.at(t);
+      for (std::size_t s = 0; s < c.subs.size(); ++s)
+        for (int f = 0; f < 4; ++f) {
+          std::array<GNode, 3> face{};
+          std::array<NodeId, 3> real{};
+          for (int i = 0, j = 0; i < 4; ++i)
+            if (i != f) {
+              face[static_cast<size_t>(j)] = c.subs[s][static_cast<size_t>(i)];
+              real[static_cast<size_t>(j++)] = c.real[s][static_cast<size_t>(i)];
+            }
+          if (!is_crack_face(face[0], face[1], face[2])) continue;
+          std::sort(face.begin(), face.end());
+          if (seen.insert(face).second) retired_crack_faces_.push_back(real);
+        }
+    }
+    for (const std::uint32_t t : comp) {
+      const CoarseTet c = std::move(cut_tets_.at(t));
+      cut_tets_.erase(t);
+      const TetId unit = coarse_.tet_handle(t);
+      const int region = coarse_.region(unit);
+      const std::uint8_t level = static_cast<std::uint8_t>(level_[t] + 1);
+      sweep_->on_tet_removed(t);
+      coarse_.remove_tet(unit);
+      for (std::size_t s = 0; s < c.live.size(); ++s) {
+        std::array<NodeId, 4> nodes{};
+        for (int i = 0; i < 4; ++i)
+          nodes[static_cast<size_t>(i)] = unit_node(c.real[s][static_cast<size_t>(i)]);
+        const TetId child = coarse_.add_tet(nodes, region);
+        if (unit_live_.size() <= child.index) {
+          unit_live_.resize(child.index + 1, kInvalidIndex);
+          level_.resize(child.index + 1, 0);
+          last_touch_.resize(child.index + 1, 0);
+        }
+        unit_live_[child.index] = c.live[s].index;
+        level_[child.index] = level;
+        last_touch_[child.index] = 0;
+        live_to_coarse_[c.live[s].index] = child.index;
+        sweep_->on_tet_added(child.index);
+      }
+      stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
+    }
+    for (const std::uint32_t id : ids) {
+      CutNode& n = cut_nodes_[id];
+      auto& map = n.kind == CutNode::Kind::Edge  ? edge_nodes_
+                  : n.kind == CutNode::Kind::Mid ? mid_nodes_
+                                                 : entry_nodes_;
+      const auto it = map.find(n.key);
+      if (it != map.end() && it->second == id) map.erase(it);
+      if (n.kind == CutNode::Kind::Mid) crossing_faces_.erase(n.key);
+      n.crossing = false;
+      n.retired = true;
+    }
+    ++stats.recursions;
+    stats.promoted_tets += comp.size();
+    any = true;
+  }
+  return any;
 }
 
 std::string CutEngine::check_faithful(double tolerance) const {

@@ -24,6 +24,19 @@
 // and the crack stays closed there; when the blade has passed, the groups separate. This re-points
 // exactly the elements on one side, as the virtual nodes do, without a search outside the star of
 // the node.
+//
+// Recursive continuation (§6): the units are a mesh of their own (`coarse()`), which starts as the
+// original mesh and can go deeper. When a stroke reaches an earlier cut with an event the basic
+// machine cannot represent there (a new cut in a unit whose subdivision is final, a second crossing
+// of a cut edge or face by another surface), the earlier cut's component (its cut units and all
+// units sharing its cut nodes) is promoted: its live sub-tetrahedra become units one level deeper,
+// its cut nodes their corners (the interconnection nodes), its crack a boundary between them, and
+// collision runs again on them before the step goes on. The live mesh does not change, so the
+// tissue model sees nothing. Promoting a whole component keeps the unit mesh conforming with no
+// frozen edge or face data: no unit outside it refers to its cut nodes. The recursion ends: each
+// pass promotes other components one level deeper, up to CutOptions::max_recursion_depth, beyond
+// which the one-level subdivision is kept (valid, not exact). Within a stroke a re-crossing of the
+// stroke's own cut is tremble or a reversal (§5), handled by the basic machine.
 #pragma once
 
 #include <array>
@@ -50,6 +63,22 @@ struct CutOptions {
   // of DESIGN section 5; the remaining slivers are the tissue model's to condition (DESIGN section 6).
   double min_edge_param = 1e-6;
   double min_face_bary = 1e-6;
+  // Recursive continuation (§6). A cut event in a tetrahedron whose subdivision is final, or a second
+  // crossing of a cut edge or face by a different surface, continues the cut on the sub-tetrahedra:
+  // they become units of their own, one level deeper. Beyond this depth the one-level subdivision
+  // is kept (the fallback), which leaves a valid mesh but cannot follow the second surface exactly.
+  int max_recursion_depth = 8;
+  // Two crossings of one edge or face belong to the same cut surface (tremble, pulling back, a
+  // re-cut along the same path) when their swept-surface normals differ by at most this angle and
+  // the new crossing lies within `same_cut_distance` (relative to the edge or face size) of the old
+  // surface's tangent plane. Below that the mesh cannot resolve two surfaces anyway.
+  double same_cut_angle_deg = 30.0;
+  double same_cut_distance = 0.5;
+  // A cut is an earlier one, which a stroke reaching it continues recursively, once the blade has
+  // not touched it for this many steps, or since place(). Within that time a tremor or a pull-back
+  // that leaves and re-enters the cut is the same stroke (1 kHz tool samples: a quarter second, two
+  // periods of a 9 Hz tremor).
+  std::uint64_t finished_after_steps = 250;
   // The state machine's table; null: the bundled config/cutting/state_machine.cut.
   const CutTable* table = nullptr;
 };
@@ -74,13 +103,17 @@ struct CutChanges {
 
 // What one tool sample did.
 struct CutStepStats {
-  std::size_t edges_cut = 0;           // forward crossings that split an edge
-  std::size_t backward_crossings = 0;  // crossings by the blunt side (Eq. 1): registered, not cut
-  std::size_t replaced_crossings = 0;  // forward crossings of registered edges (§5, Fig. 9)
-  std::size_t recrossed_edges = 0;     // crossings of an edge already cut (recursive case, §6)
-  std::size_t recrossed_faces = 0;     // pierces or crossings of a face already cut through (§6)
-  std::size_t face_pierces = 0;        // entry nodes created
-  std::size_t undone_faces = 0;        // face subdivisions undone by tremble (§5.1)
+  std::size_t edges_cut = 0;            // forward crossings that split an edge
+  std::size_t backward_crossings = 0;   // crossings by the blunt side (Eq. 1): registered, not cut
+  std::size_t replaced_crossings = 0;   // forward crossings of registered edges (§5, Fig. 9)
+  std::size_t recrossed_edges = 0;      // crossings of an edge already cut (recursive case, §6)
+  std::size_t recrossed_faces = 0;      // pierces or crossings of a face already cut through (§6)
+  std::size_t face_pierces = 0;         // entry nodes created
+  std::size_t undone_faces = 0;         // face subdivisions undone by tremble (§5.1)
+  std::size_t recursions = 0;           // cut components whose sub-tetrahedra became units (§6)
+  std::size_t promoted_tets = 0;        // units replaced by their sub-tetrahedra
+  std::size_t recursion_fallbacks = 0;  // components at the depth bound that kept their subdivision
+  int recursion_depth = 0;              // deepest level of the units created this step
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
   std::size_t nodes_created = 0;
@@ -92,6 +125,8 @@ struct CutTotals {
   std::size_t steps = 0;
   std::size_t edges_cut = 0, backward_crossings = 0, replaced_crossings = 0, recrossed_edges = 0,
               recrossed_faces = 0, face_pierces = 0, undone_faces = 0;
+  std::size_t recursions = 0, promoted_tets = 0, recursion_fallbacks = 0;
+  int max_recursion_depth = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
   std::map<std::string, std::size_t> transitions;  // "A0->B0": count
@@ -187,9 +222,23 @@ class CutEngine {
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
   std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
 
+  // Recursive continuation (§6). The cut units that the sweep in `sweep_result_` reaches with an
+  // event the basic machine cannot represent: a new cut in a unit whose subdivision is final, or
+  // a second crossing of a cut edge or face by another surface.
+  std::set<std::uint32_t> recursive_units(const BladePose& prev, const BladePose& pose) const;
+  // The cut units that share cut nodes with `t`, transitively: what must change level together.
+  std::vector<std::uint32_t> cut_component(std::uint32_t t) const;
+  // Makes the sub-tetrahedra of every promotable component of `units` units of their own;
+  // returns whether any was. Components that cannot be promoted join `refused` (counted once).
+  bool promote(const std::set<std::uint32_t>& units, std::set<std::uint32_t>& refused, CutStepStats& stats);
+  // The unit node mirroring live node `live` (same slot), created on first use.
+  NodeId unit_node(NodeId live);
+  bool same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
+                double size) const;
+  Vec3 face_sheet_normal(const std::array<std::uint32_t, 3>& key) const;
+
   TetMesh& mesh_;
   TetMesh coarse_;
-  std::size_t coarse_nodes_;
   CutOptions options_;
   const CutTable& table_;
   double coarse_volume_;  // [m^3] rest volume of the coarse mesh: every step keeps it (invariant 4)
@@ -205,6 +254,14 @@ class CutEngine {
   std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
   std::set<std::array<std::uint32_t, 3>> crossing_faces_;              // faces the blade crosses now
   std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
+  // By unit slot: the live tetrahedron of a unit not cut yet, and the unit's recursion level. Unit
+  // node slots mirror live node slots (a promoted sub-tetrahedron keeps its live nodes).
+  std::vector<std::uint32_t> unit_live_;
+  std::vector<std::uint64_t> last_touch_;  // by unit slot: the last step whose sweep touched it
+  std::uint64_t step_count_ = 0, stroke_start_ = 0;
+  std::vector<std::uint8_t> level_;
+  // Crack faces of promoted components (one side's real nodes), for the cut-surface area.
+  std::vector<std::array<NodeId, 3>> retired_crack_faces_;
   std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed
   CutChanges changes_;
   // Scratch buffers of regroup(), kept to avoid allocating on every step.

@@ -37,6 +37,10 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 // Invariant 2, geometric part: a node strictly inside a boundary face or on the interior of one of
 // its edges, without being a vertex of it, is a hanging node (a T-junction). Interior faces of a
 // conforming mesh are matched, so every hanging node shows up on an unmatched (boundary) face.
+// Only a node joined to the face by an edge to one of its vertices counts: the two sides of an
+// opened crack coincide in the rest configuration but share no node there, and may be triangulated
+// differently. A T-junction always has such a node: the split side's triangles at a corner of the
+// face join the corner to a node inside the face or on its edges.
 void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& faces, Collector& c) {
   // Hash grid of boundary-face bounding boxes, cell = mean face extent.
   double extent = 0.0;
@@ -63,6 +67,7 @@ void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& face
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
     const auto clo = cell(lo), chi = cell(hi);
     const Vec3 normal = (b - a).cross(d - a);
+    const double same = 1e-10 * std::max({(b - a).norm(), (d - b).norm(), (a - d).norm()});
     int drop = 0;
     normal.cwiseAbs().maxCoeff(&drop);
     for (long long i = clo[0]; i <= chi[0]; ++i)
@@ -73,13 +78,19 @@ void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& face
           for (const std::uint32_t n : it->second) {
             if (n == f.nodes[0] || n == f.nodes[1] || n == f.nodes[2]) continue;
             const Vec3& p = r[n];
-            if (p == a || p == b || p == d) continue;  // coincident copies across a cut
+            // Coincident copies across a cut; the two sides of a crack may compute one point in a
+            // different order, and cut nodes keep far more than this from any vertex (CutOptions).
+            if ((p - a).norm() <= same || (p - b).norm() <= same || (p - d).norm() <= same) continue;
             if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
             if (orient3d(a, b, d, p) != 0) continue;
             const int s0 = orient2d_projected(a, b, p, drop), s1 = orient2d_projected(b, d, p, drop),
                       s2 = orient2d_projected(d, a, p, drop);
             const bool inside = (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
-            if (inside) {
+            bool joined = false;
+            for (const std::uint32_t t : m.node_tets(m.node_handle(n)))
+              for (const std::uint32_t v : m.tet_vertex_indices(t))
+                joined |= v == f.nodes[0] || v == f.nodes[1] || v == f.nodes[2];
+            if (inside && joined) {
               std::ostringstream s;
               s << "node " << n << " lies on boundary face (" << f.nodes[0] << ' ' << f.nodes[1] << ' '
                 << f.nodes[2] << ") of " << tet_text(m, f.tet) << " without being its vertex (hanging node)";

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <tuple>
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
@@ -315,39 +316,102 @@ TEST_CASE(
 
 TEST_CASE(
     "several incisions: two parallel through-cuts sever a slab, a crossing cut splits all three pieces") {
-  for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five}) {
-    CAPTURE(static_cast<int>(split));
-    TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
-    CutEngine cutter(mesh);
-    auto along_y = [](double x, double y) {
-      return BladePose{Vec3(x, y, 1.5), Vec3(x, y, -0.5), Vec3::Zero()};
-    };
-    for (const double x : {0.37, 0.83}) {
-      cutter.place(along_y(x, -0.5));
-      for (int k = 1; k <= 200; ++k) {
-        cutter.step(along_y(x, -0.5 + 0.01 * k));
-        require_valid(mesh, 1.0);
+  // y = 0.4151 crosses the earlier cuts between their nodes, with no sample in their planes; y =
+  // 0.41 passes exactly through the face nodes they left at their samples (the earlier blades
+  // stood at y = 0.41 and 0.42) and samples in their planes: the new surface runs over nodes of the
+  // old one (Fig. 12), and cut nodes keep their clamp distance (CutOptions) from them.
+  for (const auto& [y, x0, volume_tolerance] :
+       {std::tuple{0.4151, 0.0037, 1e-9}, std::tuple{0.41, 0.0, 1e-4}})
+    for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five}) {
+      CAPTURE(y);
+      CAPTURE(static_cast<int>(split));
+      TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
+      CutEngine cutter(mesh);
+      auto along_y = [](double x, double at) {
+        return BladePose{Vec3(x, at, 1.5), Vec3(x, at, -0.5), Vec3::Zero()};
+      };
+      for (const double x : {0.37, 0.83}) {
+        cutter.place(along_y(x, -0.5));
+        for (int k = 1; k <= 200; ++k) {
+          cutter.step(along_y(x, -0.5 + 0.01 * k));
+          require_valid(mesh, 1.0);
+        }
       }
+      REQUIRE(connected_components(mesh).count() == 3);  // the slab x > 0.83 is severed
+      CHECK(cutter.totals().recursions == 0);
+      // Across both earlier cuts and into the severed slab.
+      cutter.place(along_y(-0.5 + x0, y));
+      for (int k = 1; k <= 200; ++k) {
+        cutter.step(along_y(-0.5 + x0 + 0.01 * k, y));
+        require_valid(mesh, 1.0);
+        REQUIRE_MESSAGE(cutter.check_faithful(1e-12).empty(), cutter.check_faithful(1e-12));
+      }
+      const auto comps = connected_components(mesh);
+      REQUIRE(comps.count() == 6);
+      std::vector<double> expect;
+      for (const double w : {0.37, 0.46, 0.17})
+        for (const double h : {y, 1.0 - y}) expect.push_back(w * h);
+      std::sort(expect.begin(), expect.end());
+      std::vector<double> v = comps.rest_volume;
+      std::sort(v.begin(), v.end());
+      // The crossing cut reaches tetrahedra the earlier cuts finished: each earlier cut's
+      // tetrahedra continue one level deeper (section 6), so the pieces are exact (invariant 7).
+      CHECK(cutter.totals().recursions == 2);
+      CHECK(cutter.totals().recursion_fallbacks == 0);
+      CHECK(cutter.totals().max_recursion_depth == 1);
+      for (std::size_t i = 0; i < 6; ++i) CHECK(std::abs(v[i] - expect[i]) < volume_tolerance * expect[i]);
+      CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
     }
-    REQUIRE(connected_components(mesh).count() == 3);  // the slab x > 0.83 is severed
-    // Across both earlier cuts and into the severed slab.
-    cutter.place(along_y(-0.5, 0.41));
+}
+
+TEST_CASE("a third cut goes two levels deep; at the depth bound it falls back and the mesh stays valid") {
+  // x = 0.37 and x = 0.3913 along y, y = 0.4151 along x: the third cut runs through the tetrahedra
+  // of the first, which the second cut promoted and cut again.
+  auto cut = [](CutEngine& cutter, TetMesh& mesh, bool along_y, double at, double offset) {
+    auto pose = [&](double s) {
+      const Vec3 c = along_y ? Vec3(at, s, 0) : Vec3(s, at, 0);
+      return BladePose{c + Vec3(0, 0, 1.5), c - Vec3(0, 0, 0.5), Vec3::Zero()};
+    };
+    cutter.place(pose(-0.5 + offset));
     for (int k = 1; k <= 200; ++k) {
-      cutter.step(along_y(-0.5 + 0.01 * k, 0.41));
+      cutter.step(pose(-0.5 + offset + 0.01 * k));
       require_valid(mesh, 1.0);
     }
+  };
+  std::vector<double> expect;
+  for (const double w : {0.37, 0.0213, 0.6087})
+    for (const double h : {0.4151, 0.5849}) expect.push_back(w * h);
+  std::sort(expect.begin(), expect.end());
+  for (const int bound : {8, 1}) {
+    CAPTURE(bound);
+    TetMesh mesh = make_box({.cells = {4, 4, 4}});
+    CutOptions options;
+    options.max_recursion_depth = bound;
+    CutEngine cutter(mesh, options);
+    cut(cutter, mesh, true, 0.37, 0.0);
+    cut(cutter, mesh, false, 0.4151, 0.0037);
+    cut(cutter, mesh, true, 0.3913, 0.0);
     const auto comps = connected_components(mesh);
     REQUIRE(comps.count() == 6);
-    std::vector<double> expect;
-    for (const double w : {0.37, 0.46, 0.17})
-      for (const double h : {0.41, 0.59}) expect.push_back(w * h);
-    std::sort(expect.begin(), expect.end());
     std::vector<double> v = comps.rest_volume;
     std::sort(v.begin(), v.end());
-    // Where two cuts cross one tetrahedron its one-level subdivision cannot follow both (the
-    // recursive continuation of section 6 is not there yet): pieces are exact away from the crossing
-    // lines, within a few percent of a cell's volume there.
-    for (std::size_t i = 0; i < 6; ++i) CHECK(std::abs(v[i] - expect[i]) < 0.015);
     CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
+    const CutTotals& t = cutter.totals();
+    MESSAGE("depth bound " << bound << ": " << t.recursions << " recursive continuations, depth "
+                           << t.max_recursion_depth << ", " << t.recursion_fallbacks << " fallbacks");
+    if (bound == 8) {
+      CHECK(t.max_recursion_depth == 2);
+      CHECK(t.recursion_fallbacks == 0);
+      for (std::size_t i = 0; i < 6; ++i) CHECK(std::abs(v[i] - expect[i]) < 1e-9 * expect[i]);
+    } else {
+      // The third cut cannot go below level 1 where the second cut runs: it keeps the one-level
+      // subdivision there, valid but not exact.
+      CHECK(t.max_recursion_depth == 1);
+      CHECK(t.recursion_fallbacks > 0);
+      double worst = 0;
+      for (std::size_t i = 0; i < 6; ++i) worst = std::max(worst, std::abs(v[i] - expect[i]));
+      CHECK(worst > 1e-9);
+      CHECK(worst < 0.015);
+    }
   }
 }

@@ -245,11 +245,14 @@ std::vector<Sample> make_trajectory(Kind kind, const Scene& s, Rng& rng) {
 
 struct RunStats {
   std::size_t trajectories = 0, steps = 0, transitions = 0, edges_cut = 0, backward = 0, recrossed = 0;
+  std::size_t recursions = 0, promoted = 0, fallbacks = 0;
+  int depth = 0;
+  std::size_t crossing_trajectories = 0, crossing_with_recursion = 0;
 };
 
 // Runs one trajectory on a copy of the scene's mesh, checking invariants 1-5 after every step, and
 // adds its counts to `stats`.
-void run_checked(const Scene& s, const std::vector<Sample>& samples, RunStats& stats,
+void run_checked(const Scene& s, const std::vector<Sample>& samples, Kind kind, RunStats& stats,
                  const std::string& what) {
   TetMesh mesh = s.mesh;
   CutEngine cutter(mesh);
@@ -261,7 +264,7 @@ void run_checked(const Scene& s, const std::vector<Sample>& samples, RunStats& s
     try {
       cutter.step(samples[i].pose);
     } catch (const std::exception& e) {
-      FAIL_CHECK(what << ", sample " << i << ": " << e.what());
+      FAIL_CHECK(what << ", sample " << i << ": " << std::string(e.what()));
       return;
     }
     ++stats.steps;
@@ -285,6 +288,14 @@ void run_checked(const Scene& s, const std::vector<Sample>& samples, RunStats& s
   stats.edges_cut += cutter.totals().edges_cut;
   stats.backward += cutter.totals().backward_crossings;
   stats.recrossed += cutter.totals().recrossed_edges + cutter.totals().recrossed_faces;
+  stats.recursions += cutter.totals().recursions;
+  stats.promoted += cutter.totals().promoted_tets;
+  stats.fallbacks += cutter.totals().recursion_fallbacks;
+  stats.depth = std::max(stats.depth, cutter.totals().max_recursion_depth);
+  if (kind == Kind::Crossing) {
+    ++stats.crossing_trajectories;
+    stats.crossing_with_recursion += cutter.totals().recursions > 0 ? 1 : 0;
+  }
 }
 
 void run_property_test(const Scene& s, int per_kind, std::uint64_t seed) {
@@ -293,7 +304,7 @@ void run_property_test(const Scene& s, int per_kind, std::uint64_t seed) {
     for (int i = 0; i < per_kind; ++i) {
       Rng rng{seed ^ (static_cast<std::uint64_t>(k) << 32) ^ static_cast<std::uint64_t>(i)};
       const auto samples = make_trajectory(static_cast<Kind>(k), s, rng);
-      run_checked(s, samples, stats,
+      run_checked(s, samples, static_cast<Kind>(k), stats,
                   s.name + ", " + kind_name(static_cast<Kind>(k)) + " trajectory " + std::to_string(i));
     }
   }
@@ -302,7 +313,12 @@ void run_property_test(const Scene& s, int per_kind, std::uint64_t seed) {
   MESSAGE(s.name << ": " << stats.trajectories << " trajectories, " << stats.steps << " steps, "
                  << stats.transitions << " transitions, " << stats.edges_cut << " edges cut, "
                  << stats.backward << " backward crossings, " << stats.recrossed
-                 << " recrossed edges and faces checked");
+                 << " recrossed edges and faces checked; " << stats.recursions << " recursive continuations ("
+                 << stats.promoted << " tetrahedra promoted, depth up to " << stats.depth << ", "
+                 << stats.fallbacks << " fallbacks at the depth bound)");
+  // Every stroke that crosses an earlier incision continues it one level deeper (section 6).
+  CHECK(stats.crossing_with_recursion == stats.crossing_trajectories);
+  CHECK(stats.fallbacks == 0);
 }
 
 }  // namespace
