@@ -5,6 +5,9 @@
 // surface from above, draws an incision twelve cells long at 0.01 mm per sample (10 mm/s at
 // 1 kHz) and lifts out. The cost of a sample should depend on what the blade touches, not on the
 // size of the mesh: the ratio of the 1-million to the 10-thousand p99 is the figure of merit.
+// Then a second incision of the same kind crosses the first in its middle (the recursive
+// continuation, paper section 6): its samples are timed separately, and its slowest sample is the
+// one that promotes the first incision's tetrahedra.
 //
 // A harness of our own, since the figures are percentiles over samples: prints a table and, with
 // --json, one JSON object per mesh.
@@ -43,7 +46,19 @@ struct Result {
   double bytes_per_tet;
   std::size_t edges_cut;
   std::size_t tets_after;
+  double cross_p50, cross_p99, cross_max;  // [us] the crossing incision
+  std::size_t promoted;                    // tetrahedra the crossing promoted
 };
+
+// Percentiles of a list of sample times.
+struct Percentiles {
+  double p50, p99, max;
+};
+Percentiles percentiles(std::vector<double> us) {
+  std::sort(us.begin(), us.end());
+  auto at = [&](double q) { return us[static_cast<size_t>(q * static_cast<double>(us.size() - 1))]; };
+  return {at(0.5), at(0.99), us.back()};
+}
 
 Result run(int n) {
   const double h = 1e-3;  // [m] cell size
@@ -53,38 +68,44 @@ Result run(int n) {
   const double after = resident_bytes();
   const std::size_t tets = mesh.tet_count();
 
-  // Incision along +x through the middle of the top face, between grid planes.
-  const double y = (std::floor(n / 2.0) + 0.37) * h, top = n * h;
-  const Vec3 back_offset = Vec3(-std::sin(0.5236), 0, std::cos(0.5236)) * (3 * h);
-  const double x0 = (std::floor(n / 2.0) - 6 + 0.21) * h;
-  auto blade = [&](const Vec3& tip) { return BladePose{tip + back_offset, tip, Vec3::Zero()}; };
-  std::vector<Vec3> path;
-  const double step = 1e-5;  // [m] per sample
-  Vec3 tip(x0, y, top + 0.5 * h);
-  for (; tip.z() > top - 1.3 * h; tip.z() -= step) path.push_back(tip);
-  for (double x = x0; x < x0 + 12 * h; x += step) path.push_back(Vec3(x, y, tip.z()));
-  for (Vec3 t(x0 + 12 * h, y, tip.z()); t.z() < top + 0.5 * h; t.z() += step) path.push_back(t);
-
-  cutter.place(blade(path.front()));
-  std::vector<double> us;
-  us.reserve(path.size());
-  for (std::size_t i = 1; i < path.size(); ++i) {
-    const auto start = std::chrono::steady_clock::now();
-    cutter.step(blade(path[i]));
-    us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count());
-  }
-  std::vector<double> sorted = us;
-  std::sort(sorted.begin(), sorted.end());
-  auto at = [&](double q) { return sorted[static_cast<size_t>(q * static_cast<double>(sorted.size() - 1))]; };
+  // Incisions along `along` (+x, then +y) through the middle of the top face, between grid planes.
+  const double top = n * h, mid = std::floor(n / 2.0) * h;
+  auto incision = [&](const Vec3& start, const Vec3& along) {
+    const Vec3 back_offset = (-std::sin(0.5236) * along + Vec3(0, 0, std::cos(0.5236))) * (3 * h);
+    auto blade = [&](const Vec3& tip) { return BladePose{tip + back_offset, tip, Vec3::Zero()}; };
+    std::vector<Vec3> path;
+    const double step = 1e-5;  // [m] per sample
+    Vec3 tip = start + Vec3(0, 0, top + 0.5 * h);
+    for (; tip.z() > top - 1.3 * h; tip.z() -= step) path.push_back(tip);
+    for (double u = 0; u < 12 * h; u += step) path.push_back(tip + u * along);
+    for (Vec3 t = tip + 12 * h * along; t.z() < top + 0.5 * h; t.z() += step) path.push_back(t);
+    cutter.place(blade(path.front()));
+    std::vector<double> us;
+    us.reserve(path.size());
+    for (std::size_t i = 1; i < path.size(); ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      cutter.step(blade(path[i]));
+      us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return us;
+  };
+  const std::vector<double> us = incision(Vec3(mid - 5.79 * h, mid + 0.37 * h, 0), Vec3(1, 0, 0));
+  const std::size_t edges_cut = cutter.totals().edges_cut, tets_after = mesh.tet_count();
+  const std::vector<double> cross = incision(Vec3(mid + 0.13 * h, mid - 5.71 * h, 0), Vec3(0, 1, 0));
+  const Percentiles first = percentiles(us), second = percentiles(cross);
   return {n,
           tets,
           us.size(),
-          at(0.5),
-          at(0.99),
-          sorted.back(),
+          first.p50,
+          first.p99,
+          first.max,
           (after - before) / static_cast<double>(tets),
-          cutter.totals().edges_cut,
-          mesh.tet_count()};
+          edges_cut,
+          tets_after,
+          second.p50,
+          second.p99,
+          second.max,
+          cutter.totals().promoted_tets};
 }
 
 }  // namespace
@@ -109,19 +130,23 @@ int main(int argc, char** argv) {
   }
   std::vector<Result> results;
   if (!json)
-    std::printf("%10s %8s %10s %10s %10s %12s %10s\n", "tets", "samples", "p50 [us]", "p99 [us]", "max [us]",
-                "bytes/tet", "edges cut");
+    std::printf("%10s %8s %10s %10s %10s %12s %10s | crossing: %10s %10s %10s %9s\n", "tets", "samples",
+                "p50 [us]", "p99 [us]", "max [us]", "bytes/tet", "edges cut", "p50 [us]", "p99 [us]",
+                "max [us]", "promoted");
   for (const int n : sizes) {
     const Result r = run(n);
     results.push_back(r);
     if (json)
       std::printf(
           "{\"tets\": %zu, \"samples\": %zu, \"p50_us\": %.3f, \"p99_us\": %.3f, \"max_us\": %.3f, "
-          "\"bytes_per_tet\": %.1f, \"edges_cut\": %zu, \"tets_after\": %zu}\n",
-          r.tets, r.samples, r.p50, r.p99, r.max, r.bytes_per_tet, r.edges_cut, r.tets_after);
+          "\"bytes_per_tet\": %.1f, \"edges_cut\": %zu, \"tets_after\": %zu, \"crossing_p50_us\": %.3f, "
+          "\"crossing_p99_us\": %.3f, \"crossing_max_us\": %.3f, \"promoted\": %zu}\n",
+          r.tets, r.samples, r.p50, r.p99, r.max, r.bytes_per_tet, r.edges_cut, r.tets_after, r.cross_p50,
+          r.cross_p99, r.cross_max, r.promoted);
     else
-      std::printf("%10zu %8zu %10.1f %10.1f %10.1f %12.1f %10zu\n", r.tets, r.samples, r.p50, r.p99, r.max,
-                  r.bytes_per_tet, r.edges_cut);
+      std::printf("%10zu %8zu %10.1f %10.1f %10.1f %12.1f %10zu |           %10.1f %10.1f %10.1f %9zu\n",
+                  r.tets, r.samples, r.p50, r.p99, r.max, r.bytes_per_tet, r.edges_cut, r.cross_p50,
+                  r.cross_p99, r.cross_max, r.promoted);
   }
   if (!json && results.size() >= 2)
     std::printf("p99 ratio largest/smallest mesh: %.2f\n", results.back().p99 / results.front().p99);
