@@ -97,14 +97,17 @@ const Task& task_of(const Scenario& s) {
 
 }  // namespace
 
-std::vector<ToolSample> generate_task_log(const Scenario& scenario, const IncisionMotion& m) {
-  const Task& task = task_of(scenario);
-  const Path path(task.path, m.corner_radius);
-  const double depth = cut_depth(task, m);
+namespace {
+
+// One incision along `path`, starting at time `t0` [s] and sample index `k0`: appends its samples
+// to `out`; returns the index of the next sample.
+long long append_incision(const Scenario& scenario, const Path& path, const IncisionMotion& m, double t0,
+                          long long k0, std::vector<ToolSample>& out) {
+  const double depth = cut_depth(task_of(scenario), m);
   const Vec3 up = Vec3::UnitZ();
   const Vec3 blade_axis = (scenario.tool.blade_back - scenario.tool.blade_tip).normalized();  // tool frame
 
-  // Phase boundaries [s]: hold, plunge, cut, lift, hold.
+  // Phase boundaries [s] from t0: hold, plunge, cut, lift, hold.
   const double t_plunge = m.hold;
   const double d_plunge = (m.approach_height + depth) / m.plunge_speed;
   const double t_cut = t_plunge + d_plunge;
@@ -114,11 +117,10 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
   const double t_end = t_hold + m.hold;
 
   const double rate = scenario.device.rate;
-  const auto last = static_cast<long long>(std::ceil(t_end * rate));
-  std::vector<ToolSample> out;
+  const auto last = static_cast<long long>(std::ceil((t0 + t_end) * rate));
   out.reserve(static_cast<std::size_t>(last) + 1);
-  for (long long k = 0; k <= last; ++k) {
-    const double t = static_cast<double>(k) / rate;
+  for (long long k = k0; k <= last; ++k) {
+    const double t = static_cast<double>(k) / rate - t0;
     double s = 0.0;       // arc length along the path
     double height = 0.0;  // tip height above the path [m]
     if (t < t_cut) {
@@ -140,10 +142,12 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
       height = -depth + (m.approach_height + depth) * min_jerk((t - t_lift) / d_plunge);
     }
     const double theta = path.heading(s);
-    const Vec3 forward(std::cos(theta), std::sin(theta), 0.0);
-    // The blade leans back: its back point is above and behind the tip (DESIGN section 2).
-    const Vec3 axis_world = std::cos(m.tilt) * up - std::sin(m.tilt) * forward;
+    // The blade leans back: its back point is above and behind the tip (DESIGN section 2). Set up
+    // for a heading along +x, then turned about the vertical to the heading, so the tool's own x
+    // axis (where a scenario puts the blade's sharp side) faces forward on any path.
+    const Vec3 axis_world = std::cos(m.tilt) * up - std::sin(m.tilt) * Vec3::UnitX();
     Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(blade_axis, axis_world).normalized();
+    q = Eigen::Quaterniond(Eigen::AngleAxisd(theta, up)) * q;
     if (q.w() < 0) q.coeffs() = -q.coeffs();
     q = Eigen::Quaterniond(round_to(q.w(), 1e9), round_to(q.x(), 1e9), round_to(q.y(), 1e9),
                            round_to(q.z(), 1e9));
@@ -159,10 +163,27 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
     const Vec3 origin = tip - q * scenario.tool.blade_tip;
 
     ToolSample sample;
-    sample.t = t;
+    sample.t = static_cast<double>(k) / rate;
     sample.position = Vec3(round_to(origin.x(), 1e7), round_to(origin.y(), 1e7), round_to(origin.z(), 1e7));
     sample.orientation = q;
     out.push_back(sample);
+  }
+  return last + 1;
+}
+
+}  // namespace
+
+std::vector<ToolSample> generate_task_log(const Scenario& scenario, const IncisionMotion& m) {
+  const Task& task = task_of(scenario);
+  std::vector<ToolSample> out;
+  const long long next = append_incision(scenario, Path(task.path, m.corner_radius), m, 0.0, 0, out);
+  if (m.cross > 0.0) {
+    const Vec3 a = task.path.front(), b = task.path.back();
+    const Vec3 middle = 0.5 * (a + b);
+    Vec3 across(-(b - a).y(), (b - a).x(), 0.0);
+    across = across.squaredNorm() > 0 ? Vec3(across.normalized()) : Vec3::UnitY();
+    const Path second({middle - 0.5 * m.cross * across, middle + 0.5 * m.cross * across}, m.corner_radius);
+    append_incision(scenario, second, m, static_cast<double>(next) / scenario.device.rate, next, out);
   }
   return out;
 }
@@ -174,6 +195,7 @@ PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion
          << " m, mean cut speed " << m.cut_speed << " m/s";
   if (m.tremble > 0.0) motion << ", tremble " << m.tremble << " m at " << m.tremble_frequency << " Hz";
   if (m.pull_back > 0.0) motion << ", pull-back " << m.pull_back << " m";
+  if (m.cross > 0.0) motion << ", then a " << m.cross << " m incision across the middle";
   std::ostringstream rate;
   rate << scenario.device.rate << " Hz";
   return {{"generator", "scalpelsim make-log"},

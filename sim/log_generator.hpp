@@ -32,6 +32,10 @@ struct IncisionMotion {
   // goes back along it by `pull_back` (a smooth bump on the arc length), then cuts forward again.
   double pull_back = 0.0;  // [m]; 0: none
   std::vector<double> pull_back_at{0.35, 0.7};
+  // A second incision across the first (paper section 6): after the first has lifted out, the same
+  // plunge, cut and lift along a straight path of this length, turned 90 degrees about the middle of
+  // the first path's end points (counter-clockwise seen from above).
+  double cross = 0.0;  // [m]; 0: none
 };
 
 // The samples, at the scenario's haptic rate (device.rate). The skin surface is taken to face +z

@@ -248,6 +248,8 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   make_log_cmd->add_option("--pull-back", motion.pull_back, "Pull back and re-cut this far, twice [m]")
       ->check(CLI::NonNegativeNumber);
+  make_log_cmd->add_option("--cross", motion.cross, "Then cut again across the middle, this long [m]")
+      ->check(CLI::NonNegativeNumber);
 
   std::string profiles_dir = bundled("config/devices").string();
   bool all_devices = false;

@@ -2,6 +2,7 @@
 # for byte, report.json without its wall-clock timings.
 #   -DSCALPELSIM=<program>  -DOUT=<folder>  [-DLOG=<pose log>, default: the scenario's]
 #   [-DMIN_BACKWARD=<n>: require at least n backward crossings]
+#   [-DMIN_RECURSIONS=<n>: require at least n recursive continuations]
 foreach(run a b)
   execute_process(COMMAND ${SCALPELSIM} replay config/scenarios/skin_incision.yaml ${LOG} --no-progress
                           --out ${OUT}/${run} RESULT_VARIABLE code
@@ -32,4 +33,9 @@ string(JSON undone GET "${report_a}" cutting undone_face_subdivisions)
 if(DEFINED MIN_BACKWARD AND backward LESS MIN_BACKWARD)
   message(FATAL_ERROR "${backward} backward crossings, expected at least ${MIN_BACKWARD}")
 endif()
-message(STATUS "two replays identical; ${edges} edges cut, ${backward} backward crossings, ${undone} face subdivisions undone")
+string(JSON recursions GET "${report_a}" cutting recursive_continuations)
+if(DEFINED MIN_RECURSIONS AND recursions LESS MIN_RECURSIONS)
+  message(FATAL_ERROR "${recursions} recursive continuations, expected at least ${MIN_RECURSIONS}")
+endif()
+message(STATUS "two replays identical; ${edges} edges cut, ${backward} backward crossings, ${undone} face "
+               "subdivisions undone, ${recursions} recursive continuations")

@@ -95,6 +95,48 @@ TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible 
   fs::remove_all(dir);
 }
 
+TEST_CASE("log generator: the bundled crossing log is reproducible and cuts across the first incision") {
+  const Scenario s = bundled();
+  IncisionMotion m;
+  m.cross = 0.012;
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_cross";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path out = dir / "skin_incision_cross.csv";
+  write_task_log(s, out.string(), m);
+  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision.yaml --cross 0.012
+  // --out config/logs/skin_incision_cross.csv
+  const std::string bundled_bytes =
+      read_bytes(fs::path(SCALPEL_SOURCE_DIR) / "config/logs/skin_incision_cross.csv");
+  REQUIRE_FALSE(bundled_bytes.empty());
+  CHECK(read_bytes(out) == bundled_bytes);
+  // The first incision as without --cross, then the tool leaves the tissue and draws a second one
+  // along y through the middle of the first, at the same depth.
+  const auto single = generate_task_log(s);
+  const auto made = generate_task_log(s, m);
+  REQUIRE(made.size() > single.size());
+  for (std::size_t k = 0; k < single.size(); ++k) {
+    CHECK(made[k].t == single[k].t);
+    CHECK(made[k].position == single[k].position);
+  }
+  double y_lo = 0, y_hi = 0, x_far = 0, z_lo = 0;
+  for (std::size_t k = single.size(); k < made.size(); ++k) {
+    CHECK(made[k].t > made[k - 1].t);
+    const ToolSample& a = made[k];
+    const Vec3 tip = a.position + a.orientation * s.tool.blade_tip;
+    if (tip.z() >= 0.0) continue;
+    y_lo = std::min(y_lo, tip.y());
+    y_hi = std::max(y_hi, tip.y());
+    x_far = std::max(x_far, std::abs(tip.x()));
+    z_lo = std::min(z_lo, tip.z());
+  }
+  CHECK(y_lo == doctest::Approx(-0.006).epsilon(1e-6));
+  CHECK(y_hi == doctest::Approx(0.006).epsilon(1e-6));
+  CHECK(x_far < 1e-6);
+  CHECK(z_lo == doctest::Approx(-0.00275).epsilon(1e-6));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("log generator: the bundled log is valid and performs the task") {
   const Scenario s = bundled();
   PoseLogReader reader(s.log->string());
