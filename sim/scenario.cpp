@@ -501,9 +501,10 @@ void Parser::device(const Value& v, DeviceSettings& out) const {
 
 void Parser::simulation(const Value& v, SimulationSettings& out) const {
   const Map m(*this, v);
-  m.only({"visual_rate", "duration"});
+  m.only({"visual_rate", "duration", "cut_recursion_depth"});
   if (const auto x = m.get("visual_rate")) out.visual_rate = positive(*x, 1000.0);
   if (const auto x = m.get("duration")) out.duration = positive(*x);
+  if (const auto x = m.get("cut_recursion_depth")) out.cut_recursion_depth = in_range(*x, integer(*x), 0, 32);
 }
 
 Task Parser::task(const Value& v) const {

@@ -101,6 +101,9 @@ struct DeviceSettings {
 struct SimulationSettings {
   double visual_rate = 60.0;       // [Hz] simulation frames per second
   std::optional<double> duration;  // [s] stop after this long; none: when the input ends
+  // Recursive continuation of cuts that reach earlier cuts (paper section 6): the deepest level;
+  // 0: off, an earlier cut keeps its one-level subdivision (CutOptions::max_recursion_depth).
+  int cut_recursion_depth = 0;
 };
 
 // The target incision, used for scoring.

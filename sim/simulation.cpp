@@ -25,7 +25,9 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   ScenarioMesh m = load_scenario_mesh(scenario_);
   mesh_ = std::move(m.mesh);
   initial_volume_ = mesh_.total_rest_volume();
-  cutter_ = std::make_unique<CutEngine>(mesh_);
+  CutOptions cut_options;
+  cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
+  cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
 
   // Tissue (DESIGN section 6): materials by region id, the scenario's solver, the fixed boundary.
   const std::map<int, Material> by_region = resolve_materials(scenario_, m.regions, mesh_);

@@ -1,10 +1,14 @@
 # Replays the bundled default scenario and log twice and requires identical outputs: mesh.vtu byte
 # for byte, report.json without its wall-clock timings.
 #   -DSCALPELSIM=<program>  -DOUT=<folder>  [-DLOG=<pose log>, default: the scenario's]
+#   [-DSCENARIO=<scenario>, default: config/scenarios/skin_incision.yaml]
 #   [-DMIN_BACKWARD=<n>: require at least n backward crossings]
 #   [-DMIN_RECURSIONS=<n>: require at least n recursive continuations]
+if(NOT DEFINED SCENARIO)
+  set(SCENARIO config/scenarios/skin_incision.yaml)
+endif()
 foreach(run a b)
-  execute_process(COMMAND ${SCALPELSIM} replay config/scenarios/skin_incision.yaml ${LOG} --no-progress
+  execute_process(COMMAND ${SCALPELSIM} replay ${SCENARIO} ${LOG} --no-progress
                           --out ${OUT}/${run} RESULT_VARIABLE code
                   OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT code EQUAL 0)

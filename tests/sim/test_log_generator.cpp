@@ -96,7 +96,9 @@ TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible 
 }
 
 TEST_CASE("log generator: the bundled crossing log is reproducible and cuts across the first incision") {
-  const Scenario s = bundled();
+  const Scenario s =
+      load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision_cross.yaml");
+  CHECK(s.simulation.cut_recursion_depth == 8);
   IncisionMotion m;
   m.cross = 0.012;
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_cross";
@@ -104,7 +106,7 @@ TEST_CASE("log generator: the bundled crossing log is reproducible and cuts acro
   fs::create_directories(dir);
   const fs::path out = dir / "skin_incision_cross.csv";
   write_task_log(s, out.string(), m);
-  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision.yaml --cross 0.012
+  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision_cross.yaml --cross 0.012
   // --out config/logs/skin_incision_cross.csv
   const std::string bundled_bytes =
       read_bytes(fs::path(SCALPEL_SOURCE_DIR) / "config/logs/skin_incision_cross.csv");

@@ -139,6 +139,7 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.tissue.cg_max_iterations == 200);
   CHECK(s.tissue.gravity == Vec3(0, 0, -9.81));
   CHECK(s.simulation.visual_rate == 60.0);
+  CHECK(s.simulation.cut_recursion_depth == 0);
   CHECK_FALSE(s.simulation.duration.has_value());
   CHECK(s.device.kind == DeviceKind::Mock);
   CHECK(s.device.rate == 1000.0);
@@ -174,7 +175,7 @@ TEST_CASE("scenario: every section parsed") {
                            "  queue_capacity: 256\n"
                            "  mapping: {scale: 0.5, offset: [0.01, 0, 0.02], rotation: {axis: [0, 0, 1], "
                            "angle_deg: 90}}\n"
-                           "simulation: {visual_rate: 30, duration: 12.5}\n"
+                           "simulation: {visual_rate: 30, duration: 12.5, cut_recursion_depth: 3}\n"
                            "log: logs/run.csv\n";
   const Scenario s = parse_scenario(text, "full.yaml", "/data/scen");
   CHECK(s.tissue.model == TissueKind::MassSpring);
@@ -194,6 +195,7 @@ TEST_CASE("scenario: every section parsed") {
   CHECK((s.device.mapping.rotation * Vec3::UnitX() - Vec3::UnitY()).norm() < 1e-15);
   CHECK(s.simulation.visual_rate == 30.0);
   CHECK(s.simulation.duration == 12.5);
+  CHECK(s.simulation.cut_recursion_depth == 3);
   CHECK(*s.log == fs::path("/data/scen/logs/run.csv"));
 
   const Scenario q =
@@ -257,6 +259,10 @@ TEST_CASE("scenario: each schema error names the file, line, column and key path
       {"empty selector", with_line(17, "  - {}"), 17, 5, "fixed[0]", "expected 'side' or 'box'"},
       {"unknown device", base_text() + "device: {kind: joystick}\n", 21, 16, "device.kind", "unknown value"},
       {"haptic rate too low", base_text() + "device:\n  rate: 10\n", 22, 9, "device.rate", "100 <= rate"},
+      {"negative recursion depth", base_text() + "simulation: {cut_recursion_depth: -1}\n", 21, 35,
+       "simulation.cut_recursion_depth", "out of range"},
+      {"fractional recursion depth", base_text() + "simulation: {cut_recursion_depth: 2.5}\n", 21, 35,
+       "simulation.cut_recursion_depth", "expected an integer"},
       {"rotation not unit", base_text() + "device:\n  mapping: {rotation: [1, 0, 0, 0.1]}\n", 22, 23,
        "device.mapping.rotation", "norm"},
       {"volume springs without springs", base_text() + "tissue: {volume_springs: true}\n", 21, 10,
