@@ -51,7 +51,7 @@ void TissueModel::grow() {
     mass_.resize(nn, 0.0);
     rows_.resize(nn);
     entries_.resize(nn);
-    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &t_}) v->resize(nn, Vec3::Zero());
+    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_}) v->resize(nn, Vec3::Zero());
     diag_inverse_.resize(nn, Mat3::Identity());
   }
   const std::size_t chunks = std::max(chunk_count(nn), chunk_count(nt));
@@ -364,7 +364,8 @@ StepStats TissueModel::step(double dt) {
   const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
   if (two_level) {
     if (coarse_stale_) {
-      coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), t_, partial_, threads);
+      coarse_.set_options(settings_.two_level);
+      coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, threads);
       coarse_stale_ = false;
       st.preconditioner_built = true;
     } else if (!born_.empty()) {
@@ -380,7 +381,7 @@ StepStats TissueModel::step(double dt) {
   bool cycle = false;  // the two-level cycle is in use
   const auto precondition = [&] {
     if (cycle) {
-      coarse_.apply(rows_, diag_inverse_, active_, r_, z_, t_, part, threads);
+      coarse_.apply(rows_, diag_inverse_, active_, r_, z_, threads);
       for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
         double rz_c = 0;
         for (std::size_t i = begin; i < end; ++i) rz_c += r_[i].dot(z_[i]);

@@ -62,6 +62,7 @@ struct TissueSettings {
   // nodes added since the last build above coarse_rebuild_fraction of the active nodes.
   int coarse_rebuild_iterations = 40;
   double coarse_rebuild_fraction = 0.1;
+  TwoLevelOptions two_level = {};  // smoother and prolongator of the two-level cycle (fem/two_level.hpp)
 };
 
 enum class StepStatus {
@@ -160,7 +161,7 @@ class TissueModel {
   std::vector<std::uint32_t> dirty_list_;
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
-  std::vector<Vec3> b_, v_, r_, z_, p_, q_, t_;
+  std::vector<Vec3> b_, v_, r_, z_, p_, q_;
   std::vector<Mat3> diag_inverse_;
   std::vector<double> partial_;
 };

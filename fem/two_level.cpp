@@ -19,14 +19,83 @@ Mat3 cross_matrix(const Vec3& d) {
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
+// (A x)_i for one block row.
+Vec3 row_product(const BlockRow& row, const std::vector<Vec3>& x) {
+  Vec3 s = Vec3::Zero();
+  for (std::size_t k = 0; k < row.cols.size(); ++k) s.noalias() += row.blocks[k] * x[row.cols[k]];
+  return s;
+}
+
+// Adds `value` to the block of `aggregate` in a short list kept in first-seen order.
+template <class Entry, class Block>
+void accumulate(std::vector<Entry>& list, std::uint32_t aggregate, const Block& value) {
+  for (Entry& e : list)
+    if (e.aggregate == aggregate) {
+      e.block += value;
+      return;
+    }
+  list.push_back({aggregate, value});
+}
+
 }  // namespace
+
+void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
+  if (aggregate_.size() >= n) return;
+  aggregate_.resize(n, -1);
+  prolongator_.resize(n);
+  for (auto* v : {&residual_, &direction_, &next_}) v->resize(n, Vec3::Zero());
+}
+
+// Largest Ritz value of D^{-1} A from the CG coefficients of block-Jacobi CG (Saad 2003, 6.7.3):
+// the Lanczos matrix has T(j,j) = 1/alpha_j + beta_{j-1}/alpha_{j-1}, T(j,j+1) = sqrt(beta_j)/alpha_j.
+void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
+                                             std::span<const std::uint8_t> active,
+                                             std::vector<double>& partial, int threads) {
+  const std::size_t nn = a.size();
+  std::vector<Vec3> r(nn, Vec3::Zero()), z(nn, Vec3::Zero()), p(nn, Vec3::Zero()), q(nn, Vec3::Zero());
+  for (std::size_t i = 0; i < nn; ++i)
+    if (active[i]) r[i] = Vec3(1.0, 0.5 + 0.5 * std::sin(static_cast<double>(i)), -1.0);
+  double rz = 0;
+  for (std::size_t i = 0; i < nn; ++i) {
+    z[i] = diag_inverse[i] * r[i];
+    p[i] = z[i];
+    rz += r[i].dot(z[i]);
+  }
+  std::vector<double> alpha, beta;
+  for (int it = 0; it < 15 && rz > 0; ++it) {
+    const double pq = multiply(a, active, p, q, partial, threads);
+    if (!(pq > 0)) break;
+    const double al = rz / pq;
+    double rz_new = 0;
+    for (std::size_t i = 0; i < nn; ++i) {
+      r[i] -= al * q[i];
+      z[i] = active[i] ? Vec3(diag_inverse[i] * r[i]) : Vec3::Zero();
+      rz_new += r[i].dot(z[i]);
+    }
+    alpha.push_back(al);
+    beta.push_back(rz_new / rz);
+    rz = rz_new;
+    for (std::size_t i = 0; i < nn; ++i) p[i] = z[i] + beta.back() * p[i];
+  }
+  const auto k = static_cast<Eigen::Index>(alpha.size());
+  lambda_ = 0;
+  if (k == 0) return;
+  Eigen::MatrixXd t = Eigen::MatrixXd::Zero(k, k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    const auto uj = static_cast<std::size_t>(j);
+    t(j, j) = 1.0 / alpha[uj] + (j > 0 ? beta[uj - 1] / alpha[uj - 1] : 0.0);
+    if (j + 1 < k) t(j, j + 1) = t(j + 1, j) = std::sqrt(beta[uj]) / alpha[uj];
+  }
+  lambda_ =
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(t, Eigen::EigenvaluesOnly).eigenvalues().maxCoeff();
+}
 
 bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                    std::span<const std::uint8_t> active, std::span<const Vec3> x,
-                                   std::vector<Vec3>& scratch, std::vector<double>& partial, int threads) {
+                                   std::vector<double>& partial, int threads) {
   const std::size_t nn = a.size();
   aggregate_.assign(nn, -1);
-  p_.assign(nn, Mat36::Zero());
+  prolongator_.assign(nn, {});
   extended_ = 0;
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
 
@@ -67,174 +136,212 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   }
 
   const auto na = static_cast<std::size_t>(count);
-  nodes_.assign(na, {});
+  std::vector<std::vector<std::uint32_t>> nodes(na);
   for (std::uint32_t i = 0; i < nn; ++i)
-    if (aggregate_[i] >= 0) nodes_[static_cast<std::size_t>(aggregate_[i])].push_back(i);
+    if (aggregate_[i] >= 0) nodes[static_cast<std::size_t>(aggregate_[i])].push_back(i);
 
-  // Orthonormalised rigid modes per aggregate.
+  // Tentative prolongator: orthonormalised rigid modes per aggregate.
+  std::vector<Mat36> tentative(nn, Mat36::Zero());
   centre_.assign(na, Vec3::Zero());
   modes_.assign(na, Mat6::Zero());
-  dropped_.assign(na, {});
   for (std::size_t ag = 0; ag < na; ++ag) {
     Vec3 c = Vec3::Zero();
-    for (const std::uint32_t i : nodes_[ag]) c += x[i];
-    c /= static_cast<double>(nodes_[ag].size());
+    for (const std::uint32_t i : nodes[ag]) c += x[i];
+    c /= static_cast<double>(nodes[ag].size());
     Mat6 g = Mat6::Zero();
-    for (const std::uint32_t i : nodes_[ag]) {
-      p_[i].leftCols<3>().setIdentity();
-      p_[i].rightCols<3>() = -cross_matrix(x[i] - c);
-      g.noalias() += p_[i].transpose() * p_[i];
+    for (const std::uint32_t i : nodes[ag]) {
+      tentative[i].leftCols<3>().setIdentity();
+      tentative[i].rightCols<3>() = -cross_matrix(x[i] - c);
+      g.noalias() += tentative[i].transpose() * tentative[i];
     }
     const Eigen::SelfAdjointEigenSolver<Mat6> eig(g);
     const double top = eig.eigenvalues().maxCoeff();
-    Mat6 t = Mat6::Zero();
+    Mat6 t = Mat6::Zero();  // a dropped direction keeps a zero column: its coarse unknown decouples
     for (int m = 0; m < 6; ++m) {
       const double l = eig.eigenvalues()(m);
-      if (l > 1e-10 * top)
-        t.col(m) = eig.eigenvectors().col(m) / std::sqrt(l);
-      else
-        dropped_[ag][static_cast<std::size_t>(m)] = true;
+      if (l > 1e-10 * top) t.col(m) = eig.eigenvectors().col(m) / std::sqrt(l);
     }
-    for (const std::uint32_t i : nodes_[ag]) p_[i] = (p_[i] * t).eval();
+    for (const std::uint32_t i : nodes[ag]) tentative[i] = (tentative[i] * t).eval();
     centre_[ag] = c;
     modes_[ag] = t;
   }
 
-  // Coarse pattern: aggregates coupled by a block of A.
-  nbr_start_.assign(na + 1, 0);
-  nbr_.clear();
-  std::vector<std::uint32_t> list;
-  for (std::size_t ag = 0; ag < na; ++ag) {
-    list.clear();
-    for (const std::uint32_t i : nodes_[ag])
-      for (const std::uint32_t j : a[i].cols)
-        if (usable(j) && aggregate_[j] >= 0) list.push_back(static_cast<std::uint32_t>(aggregate_[j]));
-    std::sort(list.begin(), list.end());
-    list.erase(std::unique(list.begin(), list.end()), list.end());
-    nbr_.insert(nbr_.end(), list.begin(), list.end());
-    nbr_start_[ag + 1] = static_cast<std::uint32_t>(nbr_.size());
-  }
-  blocks_.assign(nbr_.size(), Mat6::Zero());
+  estimate_lambda(a, diag_inverse, active, partial, threads);
 
-  // Block row I of Ac = sum over i in I, j in row i of P_i^T A_ij P_j; aggregates in parallel.
+  // Smoothed prolongator, row i: T_i - w D_i^{-1} sum_j A_ij T_j, blocks sorted by aggregate.
+  const double w = lambda_ > 0 ? options_.prolongator_weight / lambda_ : 0.0;
+  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (aggregate_[i] < 0) continue;
+      std::vector<Entry>& row = prolongator_[i];
+      row.push_back({static_cast<std::uint32_t>(aggregate_[i]), tentative[i]});
+      if (w > 0)
+        for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+          const std::uint32_t j = a[i].cols[k];
+          if (!usable(j) || aggregate_[j] < 0) continue;
+          accumulate(row, static_cast<std::uint32_t>(aggregate_[j]),
+                     Mat36(-w * (diag_inverse[i] * (a[i].blocks[k] * tentative[j]))));
+        }
+      std::sort(row.begin(), row.end(),
+                [](const Entry& l, const Entry& r) { return l.aggregate < r.aggregate; });
+    }
+  });
+  members_.assign(na, {});
+  for (std::uint32_t i = 0; i < nn; ++i)
+    for (std::size_t k = 0; k < prolongator_[i].size(); ++k)
+      members_[prolongator_[i][k].aggregate].push_back({i, static_cast<std::uint32_t>(k)});
+
+  // A P by node rows, then block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i.
+  std::vector<std::vector<Entry>> ap(nn);
+  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!active[i]) continue;
+      for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+        const std::uint32_t j = a[i].cols[k];
+        if (!usable(j)) continue;
+        for (const Entry& e : prolongator_[j])
+          accumulate(ap[i], e.aggregate, Mat36(a[i].blocks[k] * e.block));
+      }
+    }
+  });
+  struct CoarseBlock {
+    std::uint32_t aggregate;
+    Mat6 block;
+  };
+  std::vector<std::vector<CoarseBlock>> coarse_rows(na);
   parallel::for_chunks(threads, na, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t ag = begin; ag < end; ++ag) {
-      const std::uint32_t nb = nbr_start_[ag], ne = nbr_start_[ag + 1];
-      for (const std::uint32_t i : nodes_[ag]) {
-        const BlockRow& row = a[i];
-        for (std::size_t k = 0; k < row.cols.size(); ++k) {
-          const std::uint32_t j = row.cols[k];
-          if (!usable(j) || aggregate_[j] < 0) continue;
-          const auto jg = static_cast<std::uint32_t>(aggregate_[j]);
-          const auto pos = std::lower_bound(nbr_.begin() + nb, nbr_.begin() + ne, jg) - nbr_.begin();
-          const Mat36 t = row.blocks[k] * p_[j];
-          blocks_[static_cast<std::size_t>(pos)].noalias() += p_[i].transpose() * t;
-        }
+      std::vector<CoarseBlock>& row = coarse_rows[ag];
+      for (const Member& m : members_[ag]) {
+        const Mat36& pi = prolongator_[m.node][m.entry].block;
+        for (const Entry& e : ap[m.node]) accumulate(row, e.aggregate, Mat6(pi.transpose() * e.block));
       }
-      for (std::uint32_t k = nb; k < ne; ++k)
-        if (nbr_[k] == ag)
-          for (int m = 0; m < 6; ++m)
-            if (dropped_[ag][static_cast<std::size_t>(m)]) blocks_[k](m, m) = 1.0;
+      std::sort(row.begin(), row.end(),
+                [](const CoarseBlock& l, const CoarseBlock& r) { return l.aggregate < r.aggregate; });
     }
   });
 
-  // Ac with full 6x6 blocks; column 6J+b holds rows 6I+a for I in nbr(J), value Ac(J, I)(b, a).
+  // Ac with full 6x6 blocks; a zero diagonal entry (a dropped direction) becomes 1.
   const auto dim = static_cast<Eigen::Index>(6 * na);
   std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(36 * nbr_.size());
-  for (std::size_t jg = 0; jg < na; ++jg)
-    for (std::uint32_t k = nbr_start_[jg]; k < nbr_start_[jg + 1]; ++k)
-      for (int b = 0; b < 6; ++b)
-        for (int c = 0; c < 6; ++c)
-          triplets.emplace_back(static_cast<Eigen::Index>(6 * nbr_[k]) + c,
-                                static_cast<Eigen::Index>(6 * jg) + b, blocks_[k](b, c));
+  for (std::size_t ag = 0; ag < na; ++ag)
+    for (const CoarseBlock& cb : coarse_rows[ag])
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c) {
+          const double v = (cb.aggregate == ag && r == c && cb.block(r, c) == 0.0) ? 1.0 : cb.block(r, c);
+          triplets.emplace_back(static_cast<Eigen::Index>(6 * ag) + r,
+                                static_cast<Eigen::Index>(6 * cb.aggregate) + c, v);
+        }
   ac_.resize(dim, dim);
   ac_.setFromTriplets(triplets.begin(), triplets.end());
   ldlt_.compute(ac_);
   rc_.setZero(dim);
   ec_.setZero(dim);
-
-  // omega from lambda_max(D^{-1} A), 15 power iterations from a fixed start.
-  std::vector<Vec3> u(nn, Vec3::Zero());
-  std::vector<Vec3>& w = scratch;
-  for (std::size_t i = 0; i < nn; ++i)
-    if (active[i]) u[i] = Vec3(1.0, 0.5 + 0.5 * std::sin(static_cast<double>(i)), -1.0);
-  double lambda = 0;
-  for (int it = 0; it < 15; ++it) {
-    multiply(a, active, u, w, partial, threads);
-    double uu = 0, wn = 0;
-    for (std::size_t i = 0; i < nn; ++i) {
-      w[i] = diag_inverse[i] * w[i];
-      uu += u[i].squaredNorm();
-      wn += w[i].squaredNorm();
-    }
-    if (!(uu > 0) || !(wn > 0)) break;
-    lambda = std::sqrt(wn / uu);
-    for (std::size_t i = 0; i < nn; ++i) u[i] = w[i] / std::sqrt(wn);
-  }
-  omega_ = lambda > 0 ? std::min(1.0, 1.2 / lambda) : 0.5;
-  factored_ = na > 0 && ldlt_.info() == Eigen::Success && (ldlt_.vectorD().array() > 0).all();
+  residual_.assign(nn, Vec3::Zero());
+  direction_.assign(nn, Vec3::Zero());
+  next_.assign(nn, Vec3::Zero());
+  factored_ = na > 0 && lambda_ > 0 && ldlt_.info() == Eigen::Success && (ldlt_.vectorD().array() > 0).all();
   return factored_;
 }
 
 void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, const Vec3& x) {
   if (parent >= aggregate_.size() || aggregate_[parent] < 0) return;
-  if (node >= aggregate_.size()) {
-    aggregate_.resize(node + 1, -1);
-    p_.resize(node + 1, Mat36::Zero());
-  }
+  reserve_nodes(static_cast<std::size_t>(node) + 1);
   if (aggregate_[node] >= 0) return;  // a reused slot keeps its place
-  const auto ag = static_cast<std::size_t>(aggregate_[parent]);
+  const auto ag = static_cast<std::uint32_t>(aggregate_[parent]);
   aggregate_[node] = aggregate_[parent];
   Mat36 b;
   b.leftCols<3>().setIdentity();
   b.rightCols<3>() = -cross_matrix(x - centre_[ag]);
-  p_[node] = b * modes_[ag];
-  nodes_[ag].push_back(node);
+  prolongator_[node].assign(1, Entry{ag, b * modes_[ag]});
+  members_[ag].push_back({node, 0});
   ++extended_;
+}
+
+// Chebyshev smoothing of degree m (Adams et al. 2003, with the three-term recurrence of Saad 2003,
+// Algorithm 12.1): z += sum_k d_k, res tracks r - A z. From zero, the last pass leaves res = r - A z
+// for the coarse correction, so degree m costs m products with A either way.
+void TwoLevelPreconditioner::smooth(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
+                                    std::span<const std::uint8_t> active, const std::vector<Vec3>& r,
+                                    std::vector<Vec3>& z, bool from_zero, int threads) {
+  const std::size_t nn = a.size();
+  const int m = std::max(1, options_.smoothing_degree);
+  const double hi = smoothing_upper(), lo = hi / std::max(options_.smoothing_range, 1.5);
+  const double theta = 0.5 * (hi + lo), delta = 0.5 * (hi - lo), sigma = theta / delta;
+  std::vector<Vec3>& res = residual_;
+  std::vector<Vec3>* d = &direction_;
+  std::vector<Vec3>* dn = &next_;
+  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!active[i]) {
+        res[i].setZero();
+        (*d)[i].setZero();
+        z[i].setZero();
+        continue;
+      }
+      res[i] = from_zero ? r[i] : Vec3(r[i] - row_product(a[i], z));
+      (*d)[i] = (diag_inverse[i] * res[i]) / theta;
+      if (from_zero) z[i].setZero();
+    }
+  });
+  double rho = 1.0 / sigma;
+  for (int k = 1; k <= m; ++k) {
+    const bool last = k == m;
+    if (last && !from_zero) {
+      parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i) z[i] += (*d)[i];
+      });
+      break;
+    }
+    const double rho_next = 1.0 / (2.0 * sigma - rho);
+    const double c1 = rho_next * rho, c2 = 2.0 * rho_next / delta;
+    parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        if (!active[i]) {
+          (*dn)[i].setZero();
+          continue;
+        }
+        res[i] -= row_product(a[i], *d);
+        z[i] += (*d)[i];
+        if (!last) (*dn)[i] = c1 * (*d)[i] + c2 * (diag_inverse[i] * res[i]);
+      }
+    });
+    std::swap(d, dn);
+    rho = rho_next;
+  }
 }
 
 void TwoLevelPreconditioner::coarse_correct(std::span<const std::uint8_t> active, const std::vector<Vec3>& r,
                                             std::vector<Vec3>& z, int threads) {
-  const std::size_t na = nodes_.size();
+  const std::size_t na = members_.size();
   parallel::for_chunks(threads, na, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t ag = begin; ag < end; ++ag) {
       Vec6 s = Vec6::Zero();
-      for (const std::uint32_t i : nodes_[ag])
-        if (i < active.size() && active[i]) s.noalias() += p_[i].transpose() * r[i];
+      for (const Member& m : members_[ag])
+        if (m.node < active.size() && active[m.node])
+          s.noalias() += prolongator_[m.node][m.entry].block.transpose() * r[m.node];
       rc_.segment<6>(static_cast<Eigen::Index>(6 * ag)) = s;
     }
   });
   ec_ = ldlt_.solve(rc_);
-  const std::size_t nn = std::min(z.size(), aggregate_.size());
+  const std::size_t nn = std::min(z.size(), prolongator_.size());
   parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      if (active[i] && aggregate_[i] >= 0)
-        z[i].noalias() += p_[i] * ec_.segment<6>(6 * static_cast<Eigen::Index>(aggregate_[i]));
+    for (std::size_t i = begin; i < end; ++i) {
+      if (!active[i]) continue;
+      for (const Entry& e : prolongator_[i])
+        z[i].noalias() += e.block * ec_.segment<6>(6 * static_cast<Eigen::Index>(e.aggregate));
+    }
   });
 }
 
 void TwoLevelPreconditioner::apply(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                    std::span<const std::uint8_t> active, const std::vector<Vec3>& r,
-                                   std::vector<Vec3>& z, std::vector<Vec3>& scratch,
-                                   std::vector<double>& partial, int threads) {
-  const std::size_t nn = a.size();
-  std::vector<Vec3>& t = scratch;
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      z[i] = active[i] ? Vec3(omega_ * (diag_inverse[i] * r[i])) : Vec3::Zero();
-  });
-  if (!factored_) return;  // one smoothing sweep: still symmetric positive definite
-  multiply(a, active, z, t, partial, threads);
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) t[i] = r[i] - t[i];
-  });
-  coarse_correct(active, t, z, threads);
-  multiply(a, active, z, t, partial, threads);
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      if (active[i]) z[i] += omega_ * (diag_inverse[i] * (r[i] - t[i]));
-  });
+                                   std::vector<Vec3>& z, int threads) {
+  reserve_nodes(a.size());
+  smooth(a, diag_inverse, active, r, z, true, threads);
+  if (!factored_) return;  // the smoother alone: still symmetric positive definite
+  coarse_correct(active, residual_, z, threads);
+  smooth(a, diag_inverse, active, r, z, false, threads);
 }
 
 }  // namespace scalpel
