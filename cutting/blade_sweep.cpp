@@ -197,8 +197,11 @@ void BladeSweep::rebuild() {
 }
 
 void BladeSweep::on_tet_added(std::uint32_t tet) {
-  if (tet >= leaf_of_tet_.size())
+  if (tet >= leaf_of_tet_.size()) {
+    if (leaf_of_tet_.capacity() <= tet)
+      leaf_of_tet_.reserve(std::max<std::size_t>(tet + 1, mesh_.tet_capacity()) * 9 / 8);
     leaf_of_tet_.resize(std::max<std::size_t>(tet + 1, mesh_.tet_capacity()), AabbTree::kNullNode);
+  }
   if (leaf_of_tet_[tet] != AabbTree::kNullNode) tree_.remove(leaf_of_tet_[tet]);
   leaf_of_tet_[tet] = tree_.insert(fat_box(tet), tet);
 }

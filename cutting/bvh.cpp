@@ -192,7 +192,7 @@ void AabbTree::build(const std::vector<LeafInput>& leaves, std::vector<std::int3
   clear();
   leaf_ids.assign(leaves.size(), kNullNode);
   if (leaves.empty()) return;
-  nodes_.reserve(2 * leaves.size());
+  nodes_.reserve(2 * leaves.size() + leaves.size() / 8);  // room for leaves inserted later
   std::vector<std::int32_t> ids(leaves.size());
   std::vector<Vec3> centres(leaves.size());
   for (std::size_t i = 0; i < leaves.size(); ++i) {

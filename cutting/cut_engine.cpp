@@ -153,6 +153,10 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
       options_(options),
       table_(options.table ? *options.table : default_cut_table()),
       coarse_volume_(mesh.total_rest_volume()) {
+  // The units grow when a cut is continued recursively (§6): room for an eighth more, so that the
+  // first continuations of a session do not copy the whole unit mesh.
+  coarse_.reserve(coarse_.node_capacity() + coarse_.node_capacity() / 8,
+                  coarse_.tet_capacity() + coarse_.tet_capacity() / 8);
   sweep_ = std::make_unique<BladeSweep>(coarse_);
   (void)canonicalize({});  // builds the canonical-state table now, not in the first cut step
   live_to_coarse_.resize(mesh.tet_capacity());
@@ -160,6 +164,10 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
   unit_live_ = live_to_coarse_;
   level_.assign(mesh.tet_capacity(), 0);
   last_touch_.assign(mesh.tet_capacity(), 0);
+  for (auto* v : {&unit_live_, &live_to_coarse_})
+    v->reserve(coarse_.tet_capacity() + coarse_.tet_capacity() / 8);
+  level_.reserve(unit_live_.capacity());
+  last_touch_.reserve(unit_live_.capacity());
 }
 
 CutEngine::~CutEngine() = default;

@@ -70,6 +70,20 @@ TetId TetMesh::tet_handle(std::uint32_t index) const {
   return {index, tet_gen_[index]};
 }
 
+void TetMesh::reserve(std::size_t nodes, std::size_t tets) {
+  for (auto* v : {&rest_, &pos_, &vel_}) v->reserve(nodes);
+  node_gen_.reserve(nodes);
+  node_alive_.reserve(nodes);
+  node_tets_.reserve(nodes);
+  for (auto& f : fields_) f.reserve(nodes);
+  tet_nodes_.reserve(tets);
+  tet_adj_.reserve(tets);
+  tet_gen_.reserve(tets);
+  tet_alive_.reserve(tets);
+  region_.reserve(tets);
+  parent_.reserve(tets);
+}
+
 NodeId TetMesh::add_node(const Vec3& rest, const Vec3& current) {
   const std::uint32_t s = take_slot(free_nodes_, rest_);
   if (s == rest_.size()) {

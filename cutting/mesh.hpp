@@ -97,6 +97,9 @@ class TetMesh {
   // Adds a tetrahedron and links it to the neighbours that share its faces. The vertex order must
   // be positively oriented in the rest configuration (checked by validate(), not here).
   TetId add_tet(const std::array<NodeId, 4>& nodes, int region = 0);
+  // Room for this many node and tetrahedron slots without reallocating (a later add then costs
+  // O(1), not a copy of every array).
+  void reserve(std::size_t nodes, std::size_t tets);
   void remove_tet(TetId t);
   [[nodiscard]] bool alive(TetId t) const;
   [[nodiscard]] TetId tet_handle(std::uint32_t index) const;  // null if the slot is free
