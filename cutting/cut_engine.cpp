@@ -24,7 +24,6 @@ struct CutEngine::CutNode {
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // normal of the swept surface where it was cut (last sample)
-  bool retired = false;              // its component was promoted (§6): no unit refers to it
   std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
   using GroupEntry = CutNodeGroup;
   std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
@@ -93,6 +92,25 @@ Vec3 clamp_interior(Vec3 w, double floor) {
   // Blend toward the centroid just enough: (1-s) lo + s/3 = floor.
   const double s = (floor - lo) / (1.0 / 3.0 - lo);
   return (1.0 - s) * w + Vec3::Constant(s / 3.0);
+}
+
+// Normal of the surface the blade sweeps from `prev` to `pose` at blade parameter s (0 back, 1 tip):
+// the blade's direction times its motion there.
+Vec3 swept_normal(const BladePose& prev, const BladePose& pose, double s) {
+  return (pose.tip - pose.back).cross((1.0 - s) * (pose.back - prev.back) + s * (pose.tip - prev.tip));
+}
+
+// The vertices of a tetrahedron but vertex `f`: its face f, in vertex order (not oriented).
+template <class T>
+std::array<T, 3> face_without(const std::array<T, 4>& tet, int f) {
+  std::array<T, 3> out{};
+  for (int i = 0, j = 0; i < 4; ++i)
+    if (i != f) out[static_cast<size_t>(j++)] = tet[static_cast<size_t>(i)];
+  return out;
+}
+
+double triangle_area(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return 0.5 * (b - a).cross(c - a).norm();
 }
 
 int index_of(const std::array<std::uint64_t, 4>& t, std::uint64_t g) {
@@ -451,10 +469,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
     const auto& tet = *items[i].tet;
     for (int f = 0; f < 4; ++f) {
       if (tet[static_cast<size_t>(f)] == g) continue;  // the face opposite n does not hold n
-      std::array<GNode, 3> face{};
-      int k = 0;
-      for (int j = 0; j < 4; ++j)
-        if (j != f) face[static_cast<size_t>(k++)] = tet[static_cast<size_t>(j)];
+      auto face = face_without(tet, f);
       if (is_crack_face(face[0], face[1], face[2])) continue;
       std::sort(face.begin(), face.end());
       faces.push_back({face, i});
@@ -688,8 +703,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     // edge node exists and subdivides, but it never opens until a forward crossing cuts it.
     const std::uint32_t id = create_cut_node(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0));
     // Normal of the swept surface at the crossing: blade direction x blade motion there.
-    const Vec3 dir = (1.0 - e->s) * (pose.back - prev.back) + e->s * (pose.tip - prev.tip);
-    cut_nodes_[id].sheet_normal = (pose.tip - pose.back).cross(dir);
+    cut_nodes_[id].sheet_normal = swept_normal(prev, pose, e->s);
     cut_nodes_[id].registered = !e->forward;
     edge_nodes_.emplace(k, id);
     new_edges.push_back(k);
@@ -750,8 +764,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     }
     n.crossing = true;
     n.bary = w;
-    const Vec3 normal =
-        (pose.tip - pose.back).cross((1.0 - c.s) * (pose.back - prev.back) + c.s * (pose.tip - prev.tip));
+    const Vec3 normal = swept_normal(prev, pose, c.s);
     if (normal.squaredNorm() > 0) n.sheet_normal = normal;
     n.sample_sum += sample;
     ++n.samples;
@@ -962,7 +975,6 @@ double CutEngine::crack_opening() const {
 }
 
 double CutEngine::cut_surface_area() const {
-  std::set<std::array<GNode, 3>> seen;
   double area = 0.0;
   std::vector<std::uint32_t> keys;
   for (const auto& [k, c] : cut_tets_) keys.push_back(k);
@@ -972,23 +984,28 @@ double CutEngine::cut_surface_area() const {
     return mesh_.position(cut_nodes_[static_cast<size_t>(g & ~kCutBit)].copies[0]);
   };
   for (const auto& f : retired_crack_faces_)
-    area += 0.5 * (mesh_.position(f[1]) - mesh_.position(f[0]))
-                      .cross(mesh_.position(f[2]) - mesh_.position(f[0]))
-                      .norm();
-  for (const std::uint32_t k : keys)
-    for (const auto& s : cut_tets_.at(k).subs)
+    area += triangle_area(mesh_.position(f[0]), mesh_.position(f[1]), mesh_.position(f[2]));
+  for (const CrackFace& f : crack_faces(keys)) {
+    const auto face = face_without(cut_tets_.at(f.unit).subs[f.sub], f.face);
+    area += triangle_area(position(face[0]), position(face[1]), position(face[2]));
+  }
+  return area;
+}
+
+std::vector<CutEngine::CrackFace> CutEngine::crack_faces(const std::vector<std::uint32_t>& units) const {
+  std::vector<CrackFace> out;
+  std::set<std::array<GNode, 3>> seen;
+  for (const std::uint32_t t : units) {
+    const auto& subs = cut_tets_.at(t).subs;
+    for (std::uint32_t s = 0; s < subs.size(); ++s)
       for (int f = 0; f < 4; ++f) {
-        std::array<GNode, 3> face{};
-        int j = 0;
-        for (int i = 0; i < 4; ++i)
-          if (i != f) face[static_cast<size_t>(j++)] = s[static_cast<size_t>(i)];
+        auto face = face_without(subs[s], f);
         if (!is_crack_face(face[0], face[1], face[2])) continue;
         std::sort(face.begin(), face.end());
-        if (!seen.insert(face).second) continue;
-        area +=
-            0.5 * (position(face[1]) - position(face[0])).cross(position(face[2]) - position(face[0])).norm();
+        if (seen.insert(face).second) out.push_back({t, s, f});
       }
-  return area;
+  }
+  return out;
 }
 
 bool CutEngine::same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
@@ -1022,7 +1039,6 @@ std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const 
       if (it != cut_tets_.end() && (!only_complete || it->second.complete)) out.insert(t);
     }
   };
-  auto motion = [&](double s) { return (1.0 - s) * (pose.back - prev.back) + s * (pose.tip - prev.tip); };
   const Vec3 blade = pose.tip - pose.back;
   auto point_of = [&](const CutNode& n) {
     Vec3 p = Vec3::Zero();
@@ -1056,7 +1072,8 @@ std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const 
     }
     const CutNode& n = cut_nodes_[id];
     if (n.registered) continue;  // Fig. 9: the crossing takes the registered node's place
-    if (!same_cut(point_of(n), n.sheet_normal, e.point, blade.cross(motion(e.s)), (x[e.a] - x[e.b]).norm()))
+    if (!same_cut(point_of(n), n.sheet_normal, e.point, swept_normal(prev, pose, e.s),
+                  (x[e.a] - x[e.b]).norm()))
       add_units(k, false);
   }
   for (const FacePierce& p : sweep_result_.pierces) {
@@ -1066,7 +1083,7 @@ std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const 
     face_event(k, p.point, dir.cross(pose.tip - prev.tip));
   }
   for (const FaceCrossing& c : sweep_result_.crossings)
-    face_event(sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]), c.point, blade.cross(motion(c.s)));
+    face_event(sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]), c.point, swept_normal(prev, pose, c.s));
   return out;
 }
 
@@ -1125,23 +1142,8 @@ bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint
       continue;
     }
     // The crack faces stay part of the cut surface.
-    std::set<std::array<GNode, 3>> seen;
-    for (const std::uint32_t t : comp) {
-      const CoarseTet& c = cut_tets_.at(t);
-      for (std::size_t s = 0; s < c.subs.size(); ++s)
-        for (int f = 0; f < 4; ++f) {
-          std::array<GNode, 3> face{};
-          std::array<NodeId, 3> real{};
-          for (int i = 0, j = 0; i < 4; ++i)
-            if (i != f) {
-              face[static_cast<size_t>(j)] = c.subs[s][static_cast<size_t>(i)];
-              real[static_cast<size_t>(j++)] = c.real[s][static_cast<size_t>(i)];
-            }
-          if (!is_crack_face(face[0], face[1], face[2])) continue;
-          std::sort(face.begin(), face.end());
-          if (seen.insert(face).second) retired_crack_faces_.push_back(real);
-        }
-    }
+    for (const CrackFace& f : crack_faces(comp))
+      retired_crack_faces_.push_back(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
     for (const std::uint32_t t : comp) {
       const CoarseTet c = std::move(cut_tets_.at(t));
       cut_tets_.erase(t);
@@ -1177,7 +1179,6 @@ bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint
       if (it != map.end() && it->second == id) map.erase(it);
       if (n.kind == CutNode::Kind::Mid) crossing_faces_.erase(n.key);
       n.crossing = false;
-      n.retired = true;
     }
     ++stats.recursions;
     stats.promoted_tets += comp.size();

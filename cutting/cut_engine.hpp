@@ -218,6 +218,12 @@ class CutEngine {
               CutStepStats& stats);
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   bool is_crack_face(GNode a, GNode b, GNode c) const;
+  // Crack faces of the subdivisions of `units`, each once (face `face` of sub-tetrahedron `sub`).
+  struct CrackFace {
+    std::uint32_t unit, sub;
+    int face;
+  };
+  std::vector<CrackFace> crack_faces(const std::vector<std::uint32_t>& units) const;
   bool opens(std::uint32_t cut_id) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
   std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
