@@ -86,11 +86,12 @@ void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& face
             const int s0 = orient2d_projected(a, b, p, drop), s1 = orient2d_projected(b, d, p, drop),
                       s2 = orient2d_projected(d, a, p, drop);
             const bool inside = (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
+            if (!inside) continue;
             bool joined = false;
             for (const std::uint32_t t : m.node_tets(m.node_handle(n)))
               for (const std::uint32_t v : m.tet_vertex_indices(t))
                 joined |= v == f.nodes[0] || v == f.nodes[1] || v == f.nodes[2];
-            if (inside && joined) {
+            if (joined) {
               std::ostringstream s;
               s << "node " << n << " lies on boundary face (" << f.nodes[0] << ' ' << f.nodes[1] << ' '
                 << f.nodes[2] << ") of " << tet_text(m, f.tet) << " without being its vertex (hanging node)";
