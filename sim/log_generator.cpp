@@ -95,10 +95,6 @@ const Task& task_of(const Scenario& s) {
   return *s.task;
 }
 
-}  // namespace
-
-namespace {
-
 // One incision along `path`, starting at time `t0` [s] and sample index `k0`: appends its samples
 // to `out`; returns the index of the next sample.
 long long append_incision(const Scenario& scenario, const Path& path, const IncisionMotion& m, double t0,
