@@ -24,10 +24,10 @@ struct CutEngine::CutNode {
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // normal of the swept surface where it was cut (last sample)
-  std::vector<NodeId> copies;        // real nodes; copies[g] serves group g
+  std::vector<NodeId> copies;        // real nodes, one per group (group_of says which)
   using GroupEntry = CutNodeGroup;
   std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
-  // The group of sub-tetrahedron `sub` of coarse tetrahedron `coarse` (0 if not grouped).
+  // The copy sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses (0 if not grouped).
   [[nodiscard]] std::uint32_t group(std::uint32_t coarse, std::uint32_t sub) const;
 };
 
@@ -440,9 +440,9 @@ std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
   return out;
 }
 
-// Groups the sub-tetrahedra around a cut node by face adjacency that does not cross the crack;
-// group g uses copies[g]. Groups are ordered by the smallest coarse vertex they hold, which the
-// cut never changes, so a side keeps its real node from step to step.
+// Groups the sub-tetrahedra around a cut node by face adjacency that does not cross the crack and
+// gives each group a copy of the node. Groups are ordered by the smallest coarse vertex they hold,
+// which the cut never changes, so the assignment is deterministic.
 void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   CutNode& n = cut_nodes_[id];
   const GNode g = kCutBit | id;
@@ -498,18 +498,82 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   group_of_root.assign(items.size(), 0);
   for (std::uint32_t k = 0; k < order.size(); ++k) group_of_root[order[k].second] = k;
 
-  while (n.copies.size() < order.size()) {
+  // Copies follow their elements: once the crack has opened, the copies of n stand apart, and an
+  // element moved to another copy would be torn across the gap. A coarse corner of a sub-tetrahedron
+  // votes for the copy that shared a live element of the same coarse tetrahedron with it before this
+  // step (the live elements are rebuilt after regrouping). Each group keeps the copy with the most
+  // votes (largest counts first); a group split off gets a new copy where the copy it voted for
+  // stands; a group without votes (all its coarse tetrahedra newly cut) takes a copy no group uses
+  // or else a new one interpolated from the key nodes, where those coarse tetrahedra put n.
+  auto& votes = scratch_.votes;  // (group, copy, count)
+  votes.clear();
+  for (std::uint32_t i = 0; i < items.size(); ++i) {
+    const CoarseTet& c = cut_tets_.at(items[i].coarse);
+    for (const GNode v : *items[i].tet) {
+      if (v & kCutBit) continue;
+      for (const auto& e : c.real) {
+        if (std::find(e.begin(), e.end(), mesh_.node_handle(static_cast<std::uint32_t>(v))) == e.end())
+          continue;
+        for (std::uint32_t k = 0; k < n.copies.size(); ++k)
+          if (std::find(e.begin(), e.end(), n.copies[k]) != e.end())
+            votes.push_back({group_of_root[find(i)], k, 1});
+      }
+    }
+  }
+  std::sort(votes.begin(), votes.end());
+  std::size_t runs = 0;
+  for (std::size_t k = 0; k < votes.size(); ++k)
+    if (runs > 0 && votes[runs - 1][0] == votes[k][0] && votes[runs - 1][1] == votes[k][1])
+      ++votes[runs - 1][2];
+    else
+      votes[runs++] = votes[k];
+  votes.resize(runs);
+  std::stable_sort(votes.begin(), votes.end(), [](const auto& a, const auto& b) { return a[2] > b[2]; });
+  auto& copy_of = scratch_.copy_of;  // by group
+  copy_of.assign(order.size(), kInvalidIndex);
+  auto& taken = scratch_.taken;  // by copy
+  taken.assign(n.copies.size(), 0);
+  for (const auto& [group, copy, count] : votes)
+    if (copy_of[group] == kInvalidIndex && copy < taken.size() && !taken[copy]) {
+      copy_of[group] = copy;
+      taken[copy] = 1;
+    }
+  for (std::uint32_t k = 0; k < order.size(); ++k) {
+    if (copy_of[k] != kInvalidIndex) continue;
+    std::uint32_t used = kInvalidIndex, most = 0;
+    for (const auto& [group, copy, count] : votes)
+      if (group == k && count > most && copy < n.copies.size()) {
+        used = copy;
+        most = count;
+      }
+    if (used == kInvalidIndex) {  // no history: a copy no group uses, if there is one
+      const auto free = std::find(taken.begin(), taken.end(), std::uint8_t{0});
+      if (free != taken.end()) {
+        *free = 1;
+        copy_of[k] = static_cast<std::uint32_t>(free - taken.begin());
+        continue;
+      }
+    }
     NodeParents p;
-    p.parents[0] = n.copies[0];
-    p.weights[0] = 1.0;
-    p.count = 1;
+    if (used != kInvalidIndex) {
+      p.parents[0] = n.copies[used];
+      p.weights[0] = 1.0;
+      p.count = 1;
+    } else {
+      p.count = n.key[2] == kInvalidIndex ? 2 : 3;
+      for (int j = 0; j < p.count; ++j) {
+        p.parents[static_cast<size_t>(j)] = mesh_.node_handle(n.key[static_cast<size_t>(j)]);
+        p.weights[static_cast<size_t>(j)] = n.placed_bary[j];
+      }
+    }
+    copy_of[k] = static_cast<std::uint32_t>(n.copies.size());
     n.copies.push_back(add_node(p));
   }
   // Coarse tetrahedra whose sub-tetrahedra changed group must be rebuilt.
   auto& fresh = scratch_.group_of;
   fresh.clear();
   for (std::uint32_t i = 0; i < items.size(); ++i)
-    fresh.push_back({items[i].coarse, items[i].sub, group_of_root[find(i)]});
+    fresh.push_back({items[i].coarse, items[i].sub, copy_of[group_of_root[find(i)]]});
   std::sort(fresh.begin(), fresh.end());
   for (const auto& e : fresh)
     if (n.group(e.coarse, e.sub) != e.group) changed.push_back(e.coarse);

@@ -186,7 +186,7 @@ class CutEngine {
   enum class CutNodeKind : std::uint8_t { Edge, Mid, Entry };
   // Which copy of a cut node sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses.
   struct CutNodeGroup {
-    std::uint32_t coarse, sub, group;
+    std::uint32_t coarse, sub, group;  // group: the index into the cut node's copies
     friend bool operator<(const CutNodeGroup& a, const CutNodeGroup& b) {
       return a.coarse != b.coarse ? a.coarse < b.coarse : a.sub < b.sub;
     }
@@ -282,6 +282,9 @@ class CutEngine {
     std::vector<GNode> smallest;
     std::vector<std::pair<GNode, std::uint32_t>> order;
     std::vector<CutNodeGroup> group_of;
+    std::vector<std::array<std::uint32_t, 3>> votes;  // (group, copy, count)
+    std::vector<std::uint32_t> copy_of;
+    std::vector<std::uint8_t> taken;
   } scratch_;
   CutTotals totals_;
 };

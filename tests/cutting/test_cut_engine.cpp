@@ -415,3 +415,62 @@ TEST_CASE("a third cut goes two levels deep; at the depth bound it falls back an
     }
   }
 }
+
+TEST_CASE("an opened crack stays open where later cuts reach it: copies follow their elements") {
+  // A cut that stops inside the box, its crack opened by moving each side apart, then a cut across
+  // it and a third along the first, through the tetrahedra the second promoted. No element may hold
+  // nodes from both sides of the opened crack: that would tear it across the gap.
+  for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five}) {
+    CAPTURE(static_cast<int>(split));
+    TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
+    CutEngine cutter(mesh);
+    cutter.place(vertical_blade(0.37, -0.5));
+    for (int k = 1; k <= 110; ++k) cutter.step(vertical_blade(0.37, -0.5 + 0.01 * k));
+    cutter.place(vertical_blade(0.37, 1.5));  // lift out: the first cut ends at y = 0.6
+    constexpr double d = 0.01;
+    for (const NodeId n : mesh.nodes()) {
+      bool left = false, right = false;
+      for (const std::uint32_t t : mesh.node_tets(n)) {
+        Vec3 c = Vec3::Zero();
+        for (const NodeId v : mesh.tet_nodes(mesh.tet_handle(t))) c += mesh.rest(v) / 4;
+        (c.x() < 0.37 ? left : right) = true;
+      }
+      const double side = left && !right ? -1.0 : right && !left ? 1.0 : 0.0;
+      mesh.set_position(n, mesh.rest(n) + Vec3(d * side, 0, 0));
+    }
+    cutter.refit();
+    // An element that spans the gap has nodes displaced by -d and by +d.
+    auto spans = [&](TetId t) {
+      double lo = 0, hi = 0;
+      for (const NodeId v : mesh.tet_nodes(t)) {
+        const double u = (mesh.position(v) - mesh.rest(v)).x() / d;
+        lo = std::min(lo, u);
+        hi = std::max(hi, u);
+      }
+      return lo < -0.5 && hi > 0.5;
+    };
+    auto check_open = [&](int cut, int k) {
+      for (const TetId t : cutter.changes().added_tets)
+        REQUIRE_MESSAGE(!(mesh.alive(t) && spans(t)),
+                        "cut " << cut << " step " << k << ": tetrahedron " << t.index << " spans the gap");
+    };
+    auto across = [](double x) {
+      return BladePose{Vec3(x, 0.4151, 1.5), Vec3(x, 0.4151, -0.5), Vec3::Zero()};
+    };
+    cutter.place(across(-0.4963));
+    for (int k = 1; k <= 200; ++k) {
+      cutter.step(across(-0.4963 + 0.01 * k));
+      check_open(2, k);
+    }
+    require_valid(mesh, 1.0);
+    cutter.place(vertical_blade(0.3913 + d, -0.5));
+    for (int k = 1; k <= 200; ++k) {
+      cutter.step(vertical_blade(0.3913 + d, -0.5 + 0.01 * k));
+      check_open(3, k);
+    }
+    require_valid(mesh, 1.0);
+    for (const TetId t : mesh.tets()) REQUIRE(!spans(t));
+    CHECK(cutter.totals().recursions > 0);
+    CHECK(cutter.totals().recursion_fallbacks == 0);
+  }
+}
