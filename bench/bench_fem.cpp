@@ -5,7 +5,12 @@
 //
 //   ./build/release/bench/bench_fem
 //   ./build/release/bench/bench_fem --benchmark_filter=AfterCut   # medians of 5 repetitions
+//   ./build/release/bench/bench_fem --benchmark_filter=Progressive
 #include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
 
 #include <chrono>
 #include <cmath>
@@ -14,6 +19,8 @@
 
 #include "cutting/generators.hpp"
 #include "fem/tissue.hpp"
+#include "sim/scenario.hpp"
+#include "sim/simulation.hpp"
 
 using namespace scalpel;
 
@@ -169,6 +176,87 @@ void BM_TissueStepAfterCut(benchmark::State& state) {
   }
 }
 
+// A progressive incision as the simulator runs it: the cutter's topology changes reach the tissue
+// model through Simulation, tool samples at 1 kHz, a tissue step per 60 Hz frame. The blade stabs
+// 3 mm deep at y = -6 mm (through epidermis and dermis), runs 12 mm along +y at 12 mm/s and is
+// lifted out. For each tissue step after a frame that cut, ratio = its time / the time of the step
+// just before it; first_cut_ratio is that of the first cut, which meets tissue at rest (the step
+// before it has nothing to solve). Manual time: the median step after a cut.
+void BM_TissueProgressiveIncision(benchmark::State& state) {
+  const int cells = static_cast<int>(state.range(0));
+  const std::string yaml = R"(
+name: progressive
+mesh:
+  generator: slab
+  size: [0.04, 0.04]
+  cells: [)" + std::to_string(cells) +
+                           ", " + std::to_string(cells) + R"(]
+  layers:
+    - {name: epidermis, thickness: 0.002, cells: 2}
+    - {name: dermis, thickness: 0.003, cells: 2}
+    - {name: fat, thickness: 0.005, cells: 2}
+materials:
+  epidermis: {young: 1.0e5, poisson: 0.45, density: 1100, prestress: 1.1}
+  dermis: {young: 5.0e4, poisson: 0.45, density: 1100, prestress: 1.1}
+  fat: {young: 1.0e4, poisson: 0.45, density: 1100, prestress: 1.1}
+tissue: {model: corotational, rate: 60, solver: {tolerance: 1.0e-3, max_iterations: 200}}
+fixed: [{side: bottom}, {side: x_min}, {side: x_max}, {side: y_min}, {side: y_max}]
+tool:
+  blade: {back: [0, 0, 0.012], tip: [0, 0, 0], edge: [0, 1, 0]}
+)";
+  for (auto _ : state) {
+    state.PauseTiming();
+    Simulation sim(parse_scenario(yaml, "progressive.yaml", "."));
+    ForceChannel forces;
+    ToolSample s;
+    auto at = [&](double y, double z) {
+      s.position = Vec3(0.0003, y, z);
+      sim.on_sample(s);
+      s.t += 1e-3;
+      const int frame = static_cast<int>(std::floor(s.t * 60 + 1e-9));
+      if (frame > static_cast<int>(std::floor((s.t - 1e-3) * 60 + 1e-9))) sim.end_frame(frame / 60.0, forces);
+    };
+    for (int k = 0; k < 2000; ++k) at(-0.006, 0.004);  // 2 s: the tissue settles
+    for (int k = 0; k < 500; ++k) at(-0.006, 0.004 - 0.007 * k / 500);
+    for (int k = 0; k < 1000; ++k) at(-0.006 + 0.012 * k / 1000, -0.003);
+    for (int k = 0; k < 500; ++k) at(0.006, -0.003 + 0.007 * k / 500);
+    const auto& seconds = sim.tissue_step_seconds();
+    const auto& after = sim.tissue_step_after_cut();
+    const auto& stats = sim.tissue_steps();
+    std::vector<double> ratio, after_ms, without_ms;
+    double first = 0, cg_after = 0, cg_without = 0;
+    for (std::size_t k = 120; k < seconds.size(); ++k) {  // from the end of settling
+      if (after[k]) {
+        ratio.push_back(seconds[k] / seconds[k - 1]);
+        if (ratio.size() == 1) first = ratio.back();
+        after_ms.push_back(1e3 * seconds[k]);
+        cg_after += stats[k].cg_iterations;
+      } else {
+        without_ms.push_back(1e3 * seconds[k]);
+        cg_without += stats[k].cg_iterations;
+      }
+    }
+    auto quantile = [](std::vector<double> v, double q) {
+      if (v.empty()) return 0.0;
+      std::sort(v.begin(), v.end());
+      return v[static_cast<std::size_t>(std::floor(q * static_cast<double>(v.size() - 1)))];
+    };
+    state.SetIterationTime(quantile(after_ms, 0.5) / 1e3);
+    state.counters["tets"] = static_cast<double>(sim.mesh().tet_count());
+    state.counters["steps_after_cut"] = static_cast<double>(after_ms.size());
+    state.counters["after_cut_ms"] = quantile(after_ms, 0.5);
+    state.counters["without_cut_ms"] = quantile(without_ms, 0.5);
+    state.counters["ratio_p50"] = quantile(ratio, 0.5);
+    state.counters["ratio_p95"] = quantile(ratio, 0.95);
+    state.counters["ratio_max"] = quantile(ratio, 1.0);
+    state.counters["first_cut_ratio"] = first;
+    state.counters["cg_after"] = cg_after / std::max<double>(1.0, static_cast<double>(after_ms.size()));
+    state.counters["cg_without"] = cg_without / std::max<double>(1.0, static_cast<double>(without_ms.size()));
+    state.counters["edges_cut"] = static_cast<double>(sim.cutter().totals().edges_cut);
+    state.ResumeTiming();
+  }
+}
+
 // cells per side: 12 -> 5184, 24 -> 20736, 37 -> 49284 tetrahedra; second argument 0 = FEM,
 // 1 = mass-spring; third (after a cut) 0 = two-level preconditioner, 1 = block-Jacobi.
 BENCHMARK(BM_TissueStep)->ArgsProduct({{12, 24, 37}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(2.0);
@@ -179,6 +267,13 @@ BENCHMARK(BM_TissueStepAfterCut)
     ->Iterations(1)
     ->Repetitions(5)
     ->ReportAggregatesOnly(true);
+BENCHMARK(BM_TissueProgressiveIncision)
+    ->Arg(12)
+    ->Arg(24)
+    ->Arg(37)
+    ->Unit(benchmark::kMillisecond)
+    ->UseManualTime()
+    ->Iterations(1);
 
 }  // namespace
 

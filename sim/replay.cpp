@@ -279,8 +279,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
         {"wound_opening", sim.wound_opening()}};
   }
   if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);
+  // Tissue steps right after a cut (the mesh changed since the step before) and the others.
+  std::vector<double> after_cut, without_cut;
+  for (std::size_t k = 0; k < sim.tissue_step_seconds().size(); ++k)
+    (sim.tissue_step_after_cut()[k] ? after_cut : without_cut).push_back(sim.tissue_step_seconds()[k]);
   report["timings"] = {
       {"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
+      {"tissue_step_ms", percentiles(sim.tissue_step_seconds(), 1e3)},
+      {"tissue_step_after_cut_ms", percentiles(after_cut, 1e3)},
+      {"tissue_step_without_cut_ms", percentiles(without_cut, 1e3)},
       {"frame_ms", percentiles(frame_seconds, 1e3)},
       {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
 

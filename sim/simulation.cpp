@@ -72,6 +72,7 @@ void Simulation::on_sample(const ToolSample& s) {
   if (!c.added_nodes.empty()) tissue_->on_nodes_added(c.added_nodes, c.added_node_parents);
   if (!removed.empty()) tissue_->on_tets_removed(removed);
   if (!added.empty()) tissue_->on_tets_added(added);
+  topology_changed_ = topology_changed_ || !c.added_nodes.empty() || !removed.empty() || !added.empty();
   last_ = s;
   ++samples_;
 }
@@ -83,6 +84,8 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     tissue_stats_.push_back(tissue_->step(dt));
     tissue_seconds_.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    tissue_after_cut_.push_back(topology_changed_ ? 1 : 0);
+    topology_changed_ = false;
     tissue_time_ += dt;
   }
   cutter_->refit();

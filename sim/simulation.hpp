@@ -53,6 +53,8 @@ class Simulation {
   [[nodiscard]] const TissueModel& tissue() const { return *tissue_; }
   [[nodiscard]] const std::vector<StepStats>& tissue_steps() const { return tissue_stats_; }
   [[nodiscard]] const std::vector<double>& tissue_step_seconds() const { return tissue_seconds_; }
+  // Per tissue step: whether the mesh changed (a cut) since the step before it.
+  [[nodiscard]] const std::vector<std::uint8_t>& tissue_step_after_cut() const { return tissue_after_cut_; }
   // Widest opening of the wound: the largest distance between two copies of one cut node [m].
   [[nodiscard]] double wound_opening() const;
 
@@ -65,6 +67,8 @@ class Simulation {
   double tissue_time_ = 0.0;  // [s] simulated tissue time
   std::vector<StepStats> tissue_stats_;
   std::vector<double> tissue_seconds_;
+  std::vector<std::uint8_t> tissue_after_cut_;
+  bool topology_changed_ = false;  // since the last tissue step
   std::size_t samples_ = 0;
   std::size_t edges_cut_in_frame_ = 0;
   ToolSample last_;

@@ -136,3 +136,27 @@ TEST_CASE("the blade's sharp side comes from the scenario and turns with the too
   CHECK_THROWS_WITH_AS((void)parse_scenario(parallel, "edge.yaml", "."),
                        doctest::Contains("must not be parallel to the blade"), InputError);
 }
+
+TEST_CASE("tissue steps are marked when a cut changed the mesh since the step before") {
+  Simulation sim(scenario("corotational"));
+  ForceChannel forces;
+  ToolSample s;
+  s.position = Vec3(-0.0051, 0.0003, 0.004);  // above the patch
+  sim.on_sample(s);
+  double t = 0;
+  for (int k = 0; k < 3; ++k) sim.end_frame(t += 1.0 / 60, forces);
+  // Down through the epidermis and along +x: a cut.
+  for (int k = 1; k <= 400; ++k) {
+    s.t += 0.001;
+    s.position = k <= 100 ? Vec3(-0.0051, 0.0003, 0.004 - 0.0055 * k / 100)
+                          : Vec3(-0.0051 + 0.01 * (k - 100) / 300, 0.0003, -0.0015);
+    sim.on_sample(s);
+  }
+  REQUIRE(sim.cutter().totals().edges_cut > 0);
+  sim.end_frame(t += 1.0 / 60, forces);
+  sim.end_frame(t += 1.0 / 60, forces);  // no sample, no change
+  const auto& after = sim.tissue_step_after_cut();
+  REQUIRE(after.size() == sim.tissue_step_seconds().size());
+  REQUIRE(after.size() == 5);
+  CHECK(after == std::vector<std::uint8_t>{0, 0, 0, 1, 0});
+}
