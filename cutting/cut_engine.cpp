@@ -507,17 +507,22 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   // or else a new one interpolated from the key nodes, where those coarse tetrahedra put n.
   auto& votes = scratch_.votes;  // (group, copy, count)
   votes.clear();
+  auto& shared = scratch_.shared;  // (node slot, copy) per old live element of one coarse tetrahedron
+  std::uint32_t shared_of = kInvalidIndex;
   for (std::uint32_t i = 0; i < items.size(); ++i) {
-    const CoarseTet& c = cut_tets_.at(items[i].coarse);
-    for (const GNode v : *items[i].tet) {
-      if (v & kCutBit) continue;
-      for (const auto& e : c.real) {
-        if (std::find(e.begin(), e.end(), mesh_.node_handle(static_cast<std::uint32_t>(v))) == e.end())
-          continue;
+    if (items[i].coarse != shared_of) {
+      shared_of = items[i].coarse;
+      shared.clear();
+      for (const auto& e : cut_tets_.at(shared_of).real)
         for (std::uint32_t k = 0; k < n.copies.size(); ++k)
           if (std::find(e.begin(), e.end(), n.copies[k]) != e.end())
-            votes.push_back({group_of_root[find(i)], k, 1});
-      }
+            for (const NodeId v : e)
+              if (v != n.copies[k]) shared.emplace_back(v.index, k);
+    }
+    for (const GNode v : *items[i].tet) {
+      if (v & kCutBit) continue;
+      for (const auto& [node, k] : shared)
+        if (node == v) votes.push_back({group_of_root[find(i)], k, 1});
     }
   }
   std::sort(votes.begin(), votes.end());

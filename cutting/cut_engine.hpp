@@ -283,6 +283,7 @@ class CutEngine {
     std::vector<std::pair<GNode, std::uint32_t>> order;
     std::vector<CutNodeGroup> group_of;
     std::vector<std::array<std::uint32_t, 3>> votes;  // (group, copy, count)
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> shared;
     std::vector<std::uint32_t> copy_of;
     std::vector<std::uint8_t> taken;
   } scratch_;
