@@ -109,6 +109,18 @@ std::array<T, 3> face_without(const std::array<T, 4>& tet, int f) {
   return out;
 }
 
+// Parents of a node interpolated on a cut node's key edge (key[2] = kInvalidIndex) or face, at
+// weights w.
+NodeParents key_parents(const TetMesh& mesh, const std::array<std::uint32_t, 3>& key, const Vec3& w) {
+  NodeParents p;
+  p.count = key[2] == kInvalidIndex ? 2 : 3;
+  for (int i = 0; i < p.count; ++i) {
+    p.parents[static_cast<size_t>(i)] = mesh.node_handle(key[static_cast<size_t>(i)]);
+    p.weights[static_cast<size_t>(i)] = w[i];
+  }
+  return p;
+}
+
 double triangle_area(const Vec3& a, const Vec3& b, const Vec3& c) {
   return 0.5 * (b - a).cross(c - a).norm();
 }
@@ -539,7 +551,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   auto& taken = scratch_.taken;  // by copy
   taken.assign(n.copies.size(), 0);
   for (const auto& [group, copy, count] : votes)
-    if (copy_of[group] == kInvalidIndex && copy < taken.size() && !taken[copy]) {
+    if (copy_of[group] == kInvalidIndex && !taken[copy]) {
       copy_of[group] = copy;
       taken[copy] = 1;
     }
@@ -547,7 +559,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
     if (copy_of[k] != kInvalidIndex) continue;
     std::uint32_t used = kInvalidIndex, most = 0;
     for (const auto& [group, copy, count] : votes)
-      if (group == k && count > most && copy < n.copies.size()) {
+      if (group == k && count > most) {
         used = copy;
         most = count;
       }
@@ -565,11 +577,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
       p.weights[0] = 1.0;
       p.count = 1;
     } else {
-      p.count = n.key[2] == kInvalidIndex ? 2 : 3;
-      for (int j = 0; j < p.count; ++j) {
-        p.parents[static_cast<size_t>(j)] = mesh_.node_handle(n.key[static_cast<size_t>(j)]);
-        p.weights[static_cast<size_t>(j)] = n.placed_bary[j];
-      }
+      p = key_parents(mesh_, n.key, n.placed_bary);
     }
     copy_of[k] = static_cast<std::uint32_t>(n.copies.size());
     n.copies.push_back(add_node(p));
@@ -1008,13 +1016,7 @@ std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, cons
   n.kind = kind;
   n.key = key;
   n.bary = bary;
-  NodeParents p;
-  p.count = kind == CutNode::Kind::Edge ? 2 : 3;
-  for (int i = 0; i < p.count; ++i) {
-    p.parents[static_cast<size_t>(i)] = mesh_.node_handle(key[static_cast<size_t>(i)]);
-    p.weights[static_cast<size_t>(i)] = bary[i];
-  }
-  n.copies.push_back(add_node(p));
+  n.copies.push_back(add_node(key_parents(mesh_, key, bary)));
   n.placed_bary = bary;  // the copy is interpolated at `bary` by add_node
   cut_nodes_.push_back(std::move(n));
   return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
