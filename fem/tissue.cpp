@@ -46,6 +46,7 @@ void TissueModel::grow() {
   if (fixed_.size() < nn) {
     fixed_.resize(nn, 0);
     active_.resize(nn, 0);
+    passenger_.resize(nn, 0);
     dirty_.resize(nn, 0);
     external_.resize(nn, Vec3::Zero());
     mass_.resize(nn, 0.0);
@@ -160,6 +161,7 @@ void TissueModel::rebuild_row(std::uint32_t i) {
   entries.clear();
   mass_[i] = 0;
   active_[i] = 0;
+  passenger_[i] = 0;
   if (!mesh_.node_slot_alive(i)) {
     row.blocks.clear();
     return;
@@ -178,7 +180,9 @@ void TissueModel::rebuild_row(std::uint32_t i) {
                                       row.cols.begin());
   };
   row.diag = col_of(i);
+  bool supported = false;
   for (const std::uint32_t t : tets) {
+    supported = supported || rest_[t].quality >= settings_.support_quality;
     Entry e{t, 0, {}};
     for (int a = 0; a < 4; ++a) {
       const std::uint32_t n = tet_vertices_[t][static_cast<size_t>(a)];
@@ -189,7 +193,9 @@ void TissueModel::rebuild_row(std::uint32_t i) {
     mass_[i] += materials_[static_cast<std::size_t>(tet_region_[t])].density * rest_[t].mass_volume / 4.0;
   }
   row.blocks.assign(row.cols.size(), Mat3::Zero());
-  active_[i] = (!fixed_[i] && mass_[i] > 0) ? 1 : 0;
+  const bool free = !fixed_[i] && mass_[i] > 0;
+  active_[i] = (free && supported) ? 1 : 0;
+  passenger_[i] = (free && !supported) ? 1 : 0;
 }
 
 void TissueModel::refresh() {
@@ -470,6 +476,17 @@ StepStats TissueModel::step(double dt) {
     if (active_[i]) {
       v[i] = v_[i];
       x[i] += dt * v_[i];
+    } else if (passenger_[i]) {
+      // Rides with the mean new velocity of its neighbours that carry stiffness (fixed ones: 0).
+      Vec3 sum = Vec3::Zero();
+      int count = 0;
+      for (const std::uint32_t j : rows_[i].cols)
+        if (active_[j] || fixed_[j]) {
+          sum += v_[j];
+          ++count;
+        }
+      v[i] = count > 0 ? Vec3(sum / count) : Vec3::Zero();
+      x[i] += dt * v[i];
     } else {
       v[i].setZero();
     }

@@ -23,6 +23,13 @@
 // their rotation from the tetrahedron they descend from (mesh.parent). See fem/element.hpp for the element
 // models, prestress and the sliver remedy.
 //
+// Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
+// a cut node at the clamp distance from a vertex) has mass but almost no stiffness, the sliver
+// remedy having scaled it away: the solve would let it sag or fall by millimetres, and the cutter
+// would later build elements on a node far from its neighbours. It is left out of the solve (its
+// elements act on their other nodes like a prescribed node) and rides with the mean new velocity of
+// its neighbours that carry stiffness (fixed ones count with velocity 0).
+//
 // Thread ownership: a TissueModel and its mesh belong to the simulation thread; calls are not
 // thread-safe. The model uses its own worker threads (OpenMP) inside step() only.
 #pragma once
@@ -51,6 +58,7 @@ struct TissueSettings {
   int max_iterations = 200;              // CG iteration cap
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
   double sliver_quality = 0.05;          // q_min of the sliver remedy (element.hpp) [-]
+  double support_quality = 5e-4;         // a free node with no element this good is a passenger [-]
   int threads = 2;                       // worker threads in step()
   Preconditioner preconditioner = Preconditioner::TwoLevel;
   // With TwoLevel, CG starts on block-Jacobi and restarts from its iterate with the two-level cycle
@@ -151,6 +159,7 @@ class TissueModel {
 
   // Per node slot.
   std::vector<std::uint8_t> fixed_, active_, dirty_;
+  std::vector<std::uint8_t> passenger_;  // free, but no element supports it (see above)
   std::vector<Vec3> external_;
   std::vector<double> mass_;
   std::vector<BlockRow> rows_;               // A, one block row per node slot
