@@ -24,11 +24,12 @@
 // models, prestress and the sliver remedy.
 //
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
-// a cut node at the clamp distance from a vertex) has mass but almost no stiffness, the sliver
-// remedy having scaled it away: the solve would let it sag or fall by millimetres, and the cutter
-// would later build elements on a node far from its neighbours. It is left out of the solve (its
-// elements act on their other nodes like a prescribed node) and rides with the mean new velocity of
-// its neighbours that carry stiffness (fixed ones count with velocity 0).
+// a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
+// or stiffness the sliver remedy scaled by less than 1/100. The solve lets such a node fall freely
+// or drift (in a run of random cuts one held by elements of q <= 7e-5 drifted 10 mm), and the cutter
+// later builds elements on a node far from its neighbours. It is left out of the solve (its elements
+// act on their other nodes like a prescribed node) and rides with the mean new velocity of its
+// neighbours that carry stiffness (fixed ones count with velocity 0).
 //
 // Thread ownership: a TissueModel and its mesh belong to the simulation thread; calls are not
 // thread-safe. The model uses its own worker threads (OpenMP) inside step() only.
