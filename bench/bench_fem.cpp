@@ -9,13 +9,12 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
-#include <string>
-#include <vector>
-
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "cutting/generators.hpp"
 #include "fem/tissue.hpp"
