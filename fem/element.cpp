@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 namespace scalpel {
 
 TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sliver_quality) {
@@ -85,12 +87,23 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   const Mat3 r = q.toRotationMatrix();
   const Mat3 rtf = r.transpose() * f;
   const Mat3 eps = 0.5 * (rtf + rtf.transpose()) - Mat3::Identity();
+  // Strain limit (element.hpp): principal strains and the volumetric strain beyond kStrainLimit
+  // keep the stress they have at the limit; the energy grows linearly there.
+  Mat3 e = eps;
   const double tr = eps.trace();
-  Mat3 sigma = 2.0 * rest.mu * eps;
-  sigma.diagonal().array() += rest.lambda * tr;
+  if (eps.squaredNorm() > kStrainLimit * kStrainLimit) {
+    Eigen::SelfAdjointEigenSolver<Mat3> es;
+    es.computeDirect(eps);
+    const Vec3 held = es.eigenvalues().cwiseMax(-kStrainLimit).cwiseMin(kStrainLimit);
+    e.noalias() = es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose();
+  }
+  const double tr_held = std::clamp(tr, -kStrainLimit, kStrainLimit);
+  Mat3 sigma = 2.0 * rest.mu * e;
+  sigma.diagonal().array() += rest.lambda * tr_held;
   out.c.noalias() = r * rest.grad;
   out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
-  out.energy = rest.volume * (rest.mu * eps.squaredNorm() + 0.5 * rest.lambda * tr * tr);
+  out.energy = rest.volume * (rest.mu * (2.0 * e.cwiseProduct(eps).sum() - e.squaredNorm()) +
+                              0.5 * rest.lambda * tr_held * (2.0 * tr - tr_held));
 }
 
 void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out) {
@@ -101,12 +114,15 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
     const Vec3 d = x[static_cast<size_t>(j)] - x[static_cast<size_t>(i)];
     const double l = d.norm();
     const double stretch = l - rest.rest_length[e];
+    // The strain limit of the co-rotational element, on the spring's strain.
+    const double limit = kStrainLimit * rest.rest_length[e];
+    const double held = std::clamp(stretch, -limit, limit);
     out.direction[e] = l > 0 ? Vec3(d / l) : Vec3::UnitX();
     out.tension[e] = l > 0 ? std::max(0.0, 1.0 - rest.rest_length[e] / l) : 0.0;
-    const Vec3 fs = rest.spring_k[e] * stretch * out.direction[e];
+    const Vec3 fs = rest.spring_k[e] * held * out.direction[e];
     out.force.col(i) += fs;
     out.force.col(j) -= fs;
-    energy += 0.5 * rest.spring_k[e] * stretch * stretch;
+    energy += rest.spring_k[e] * held * (stretch - 0.5 * held);
   }
   const Vec3 e1 = x[1] - x[0], e2 = x[2] - x[0], e3 = x[3] - x[0];
   out.volume_grad.col(1) = e2.cross(e3) / 6.0;
@@ -114,8 +130,9 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
   out.volume_grad.col(3) = e1.cross(e2) / 6.0;
   out.volume_grad.col(0) = -(out.volume_grad.col(1) + out.volume_grad.col(2) + out.volume_grad.col(3));
   const double dv = e1.dot(e2.cross(e3)) / 6.0 - rest.volume;
-  out.force -= rest.volume_k * dv * out.volume_grad;
-  out.energy = energy + 0.5 * rest.volume_k * dv * dv;
+  const double held = std::clamp(dv, -kStrainLimit * rest.volume, kStrainLimit * rest.volume);
+  out.force -= rest.volume_k * held * out.volume_grad;
+  out.energy = energy + rest.volume_k * held * (dv - 0.5 * held);
 }
 
 namespace {

@@ -28,6 +28,15 @@
 // stiffness grows like 1/q; the scaling bounds it by that of a q_min element of the same size, so
 // a cut cannot make the system arbitrarily ill-conditioned. Mass stays exact. Below kInertQuality
 // an element carries mass only: its gradients would turn position round-off into strain.
+//
+// Strain limit: linear elasticity means nothing far beyond 100 % strain, where only elements the
+// cutter made in deformed tissue go (a sub-tetrahedron whose rest shape is a sliver but whose
+// nodes have moved apart, or one born inverted). There the fixed-R stiffness misses the rotational
+// terms, which are of the order of the stress, and the implicit step pumps energy into the element.
+// So the energy is continued linearly (Huber) past |strain| = kStrainLimit: each principal strain of
+// the co-rotational element, its volumetric strain, each spring's strain and the mass-spring
+// volume term keep the force they have at the limit. Energy and force stay exact derivatives; the
+// solver keeps the full stiffness there (an over-estimate, which only damps).
 #pragma once
 
 #include <array>
@@ -46,6 +55,7 @@ using Vec12 = Eigen::Matrix<double, 12, 1>;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 
 inline constexpr double kInertQuality = 1e-8;
+inline constexpr double kStrainLimit = 1.0;  // see "Strain limit" above [-]
 
 enum class TissueKind { Corotational, MassSpring };
 
