@@ -37,10 +37,12 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 // Invariant 2, geometric part: a node strictly inside a boundary face or on the interior of one of
 // its edges, without being a vertex of it, is a hanging node (a T-junction). Interior faces of a
 // conforming mesh are matched, so every hanging node shows up on an unmatched (boundary) face.
-// Only a node joined to the face by an edge to one of its vertices counts: the two sides of an
-// opened crack coincide in the rest configuration but share no node there, and may be triangulated
-// differently. A T-junction always has such a node: the split side's triangles at a corner of the
-// face join the corner to a node inside the face or on its edges.
+// Only a node joined to the face by an edge to one of its vertices counts, and a node on an edge of
+// the face only if joined to both ends of that edge: the two sides of an opened crack coincide in
+// the rest configuration but share no node there but the crack's front, and may be triangulated
+// differently (a later cut may split one side of an earlier crack, §6). A T-junction always has
+// such a node: the split side's triangles at a corner of the face join the corner to a node inside
+// the face or on its edges, and a split edge's piece ends join its node to both ends.
 void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& faces, Collector& c) {
   // Hash grid of boundary-face bounding boxes, cell = mean face extent.
   double extent = 0.0;
@@ -87,10 +89,19 @@ void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& face
                       s2 = orient2d_projected(d, a, p, drop);
             const bool inside = (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
             if (!inside) continue;
-            bool joined = false;
+            // Which of the face's vertices the node is joined to; on an edge of the face, the split
+            // side of a T-junction joins it to both ends of that edge.
+            std::array<bool, 3> to{};
             for (const std::uint32_t t : m.node_tets(m.node_handle(n)))
               for (const std::uint32_t v : m.tet_vertex_indices(t))
-                joined |= v == f.nodes[0] || v == f.nodes[1] || v == f.nodes[2];
+                for (size_t q = 0; q < 3; ++q) to[q] = to[q] || v == f.nodes[q];
+            bool joined = to[0] || to[1] || to[2];
+            auto on_edge = [&](const Vec3& u, const Vec3& w) {
+              return (w - u).cross(p - u).norm() <= same * (w - u).norm();
+            };
+            if (on_edge(a, b)) joined = to[0] && to[1];
+            if (on_edge(b, d)) joined = to[1] && to[2];
+            if (on_edge(d, a)) joined = to[2] && to[0];
             if (joined) {
               std::ostringstream s;
               s << "node " << n << " lies on boundary face (" << f.nodes[0] << ' ' << f.nodes[1] << ' '

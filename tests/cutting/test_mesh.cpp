@@ -111,6 +111,33 @@ TEST_CASE("validate names the broken invariant and element") {
     CHECK_FALSE(r.passed[2]);
     CHECK(r.summary().find("hanging node") != std::string::npos);
   }
+  SUBCASE("hanging node on an edge") {
+    // The lower tet split in two at the middle of an edge of the shared face.
+    TetMesh m;
+    const NodeId a = m.add_node(Vec3(0, 0, 0)), b = m.add_node(Vec3(1, 0, 0)), c = m.add_node(Vec3(0, 1, 0)),
+                 top = m.add_node(Vec3(0, 0, 1)), bottom = m.add_node(Vec3(0.2, 0.2, -1));
+    const NodeId mid = m.add_node(Vec3(0.5, 0, 0));
+    m.add_tet({a, b, c, top});
+    m.add_tet({a, mid, c, bottom});
+    m.add_tet({mid, b, c, bottom});
+    const auto r = validate(m);
+    CHECK_FALSE(r.passed[2]);
+    CHECK(r.summary().find("hanging node") != std::string::npos);
+  }
+  SUBCASE("one side of a crack split up to the crack's front is no hanging node") {
+    // The same shape, but the sides are apart (copies b2, c2 of b, c) except at node a, the front
+    // of the crack between them: a later cut may split one side only (paper section 6).
+    TetMesh m;
+    const NodeId a = m.add_node(Vec3(0, 0, 0)), b = m.add_node(Vec3(1, 0, 0)), c = m.add_node(Vec3(0, 1, 0)),
+                 top = m.add_node(Vec3(0, 0, 1)), bottom = m.add_node(Vec3(0.2, 0.2, -1));
+    const NodeId b2 = m.add_node(Vec3(1, 0, 0)), c2 = m.add_node(Vec3(0, 1, 0)),
+                 mid = m.add_node(Vec3(0.5, 0, 0));
+    m.add_tet({a, b, c, top});
+    m.add_tet({a, mid, c2, bottom});
+    m.add_tet({mid, b2, c2, bottom});
+    const auto r = validate(m);
+    CHECK_MESSAGE(r.passed[2], r.summary());
+  }
   SUBCASE("lost volume") {
     TetMesh m = make_box({});
     m.remove_tet(m.tets().front());
