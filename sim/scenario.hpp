@@ -103,7 +103,7 @@ struct SimulationSettings {
   std::optional<double> duration;  // [s] stop after this long; none: when the input ends
   // Recursive continuation of cuts that reach earlier cuts (paper section 6): the deepest level;
   // 0: off, an earlier cut keeps its one-level subdivision (CutOptions::max_recursion_depth).
-  int cut_recursion_depth = 0;
+  int cut_recursion_depth = 8;
 };
 
 // The target incision, used for scoring.

@@ -139,7 +139,7 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.tissue.cg_max_iterations == 200);
   CHECK(s.tissue.gravity == Vec3(0, 0, -9.81));
   CHECK(s.simulation.visual_rate == 60.0);
-  CHECK(s.simulation.cut_recursion_depth == 0);
+  CHECK(s.simulation.cut_recursion_depth == 8);
   CHECK_FALSE(s.simulation.duration.has_value());
   CHECK(s.device.kind == DeviceKind::Mock);
   CHECK(s.device.rate == 1000.0);
