@@ -180,7 +180,9 @@ void BM_TissueStepAfterCut(benchmark::State& state) {
 // 3 mm deep at y = -6 mm (through epidermis and dermis), runs 12 mm along +y at 12 mm/s and is
 // lifted out. For each tissue step after a frame that cut, ratio = its time / the time of the step
 // just before it; first_cut_ratio is that of the first cut, which meets tissue at rest (the step
-// before it has nothing to solve). Manual time: the median step after a cut.
+// before it is a settled one), with the CG iterations of both (cg_first, of which cycle_first used
+// the two-level cycle; cg_before_first) and both step times. Manual time: the median step after a
+// cut.
 void BM_TissueProgressiveIncision(benchmark::State& state) {
   const int cells = static_cast<int>(state.range(0));
   const std::string yaml = R"(
@@ -227,7 +229,14 @@ tool:
     for (std::size_t k = 120; k < seconds.size(); ++k) {  // from the end of settling
       if (after[k]) {
         ratio.push_back(seconds[k] / seconds[k - 1]);
-        if (ratio.size() == 1) first = ratio.back();
+        if (ratio.size() == 1) {
+          first = ratio.back();
+          state.counters["cg_first"] = stats[k].cg_iterations;
+          state.counters["cg_before_first"] = stats[k - 1].cg_iterations;
+          state.counters["cycle_first"] = stats[k].cycle_iterations;
+          state.counters["first_ms"] = 1e3 * seconds[k];
+          state.counters["before_first_ms"] = 1e3 * seconds[k - 1];
+        }
         after_ms.push_back(1e3 * seconds[k]);
         cg_after += stats[k].cg_iterations;
       } else {
