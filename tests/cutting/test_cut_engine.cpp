@@ -364,6 +364,41 @@ TEST_CASE(
     }
 }
 
+TEST_CASE("one stroke that closes on itself excises what it encloses, a figure of eight both lobes") {
+  // Through-cuts by a vertical blade in one stroke, without lifting out: a circle run 0.3 rad past
+  // its start, and a figure of eight (x, y) = (0.35 sin a, 0.25 sin 2a) that crosses its own cut at
+  // the centre. Each lobe of the eight encloses 4/3 * 0.35 * 0.25 of the unit-square section; on
+  // a 12-cell box the pieces come within 3 % of the enclosed areas (the mesh's chords).
+  const double lobe = 4.0 / 3.0 * 0.35 * 0.25, disc = 3.14159265358979 * 0.09;
+  for (const bool eight : {false, true}) {
+    CAPTURE(eight);
+    TetMesh mesh = make_box({.cells = {12, 12, 3}, .split = CubeSplit::Six});
+    CutEngine cutter(mesh);
+    auto blade = [&](double a) {
+      const Vec3 p = eight ? Vec3(0.5 + 0.35 * std::sin(a), 0.5 + 0.25 * std::sin(2 * a), 0)
+                           : Vec3(0.5 + 0.3 * std::cos(a), 0.5 + 0.3 * std::sin(a), 0);
+      return BladePose{Vec3(p.x(), p.y(), 1.5), Vec3(p.x(), p.y(), -0.5), Vec3::Zero()};
+    };
+    const double end = eight ? 2 * 3.14159265358979 : 2 * 3.14159265358979 + 0.3;
+    cutter.place(blade(0));
+    for (int k = 1; k <= 400; ++k) {
+      cutter.step(blade(end * k / 400));
+      require_valid(mesh, 1.0);
+    }
+    const auto comps = connected_components(mesh);
+    std::vector<double> v = comps.rest_volume;
+    std::sort(v.begin(), v.end());
+    REQUIRE(v.size() == (eight ? 3u : 2u));
+    if (eight) {
+      CHECK(std::abs(v[0] - lobe) < 0.03 * lobe);
+      CHECK(std::abs(v[1] - lobe) < 0.03 * lobe);
+    } else {
+      CHECK(std::abs(v[0] - disc) < 0.03 * disc);
+    }
+    CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
+  }
+}
+
 TEST_CASE("a third cut goes two levels deep; at the depth bound it falls back and the mesh stays valid") {
   // x = 0.37 and x = 0.3913 along y, y = 0.4151 along x: the third cut runs through the tetrahedra
   // of the first, which the second cut promoted and cut again.
