@@ -91,13 +91,17 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   // keep the stress they have at the limit; the energy grows linearly there.
   Mat3 e = eps;
   const double tr = eps.trace();
+  const double tr_held = std::clamp(tr, -kStrainLimit, kStrainLimit);
+  out.held = tr_held != tr;
   if (eps.squaredNorm() > kStrainLimit * kStrainLimit) {
     Eigen::SelfAdjointEigenSolver<Mat3> es;
     es.computeDirect(eps);
     const Vec3 held = es.eigenvalues().cwiseMax(-kStrainLimit).cwiseMin(kStrainLimit);
-    e.noalias() = es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose();
+    if (held != es.eigenvalues()) {
+      e.noalias() = es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose();
+      out.held = true;
+    }
   }
-  const double tr_held = std::clamp(tr, -kStrainLimit, kStrainLimit);
   Mat3 sigma = 2.0 * rest.mu * e;
   sigma.diagonal().array() += rest.lambda * tr_held;
   out.c.noalias() = r * rest.grad;
@@ -108,6 +112,7 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
 
 void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out) {
   out.force.setZero();
+  out.held = false;
   double energy = 0;
   for (size_t e = 0; e < 6; ++e) {
     const int i = kEdgeVertices[e][0], j = kEdgeVertices[e][1];
@@ -117,6 +122,7 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
     // The strain limit of the co-rotational element, on the spring's strain.
     const double limit = kStrainLimit * rest.rest_length[e];
     const double held = std::clamp(stretch, -limit, limit);
+    out.held = out.held || held != stretch;
     out.direction[e] = l > 0 ? Vec3(d / l) : Vec3::UnitX();
     out.tension[e] = l > 0 ? std::max(0.0, 1.0 - rest.rest_length[e] / l) : 0.0;
     const Vec3 fs = rest.spring_k[e] * held * out.direction[e];
@@ -131,6 +137,7 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
   out.volume_grad.col(0) = -(out.volume_grad.col(1) + out.volume_grad.col(2) + out.volume_grad.col(3));
   const double dv = e1.dot(e2.cross(e3)) / 6.0 - rest.volume;
   const double held = std::clamp(dv, -kStrainLimit * rest.volume, kStrainLimit * rest.volume);
+  out.held = out.held || held != dv;
   out.force -= rest.volume_k * held * out.volume_grad;
   out.energy = energy + rest.volume_k * held * (dv - 0.5 * held);
 }

@@ -84,6 +84,7 @@ struct CorotationalState {
   Mat34 c;        // rotated gradients c_a = R b_a [1/m]
   Mat34 force;    // f_a [N]
   double energy;  // [J]
+  bool held;      // a strain is beyond the strain limit
 };
 
 // Evaluates the element at current positions x; q is the warm start in, the rotation out.
@@ -104,6 +105,7 @@ struct MassSpringState {
   Mat34 volume_grad;              // d vol / d x_a [m^2]
   Mat34 force;                    // [N]
   double energy;                  // [J]
+  bool held;                      // a strain is beyond the strain limit
 };
 
 void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out);

@@ -215,12 +215,13 @@ void TissueModel::refresh() {
 #endif
 }
 
-void TissueModel::evaluate_elements(double& energy) {
+std::size_t TissueModel::evaluate_elements(double& energy) {
   const std::size_t nt = tet_on_.size();
+  const std::size_t chunks = chunk_count(nt);
   const auto& pos = mesh_.positions();
   const bool corot = settings_.kind == TissueKind::Corotational;
   for_chunks(settings_.threads, nt, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double e = 0;
+    double e = 0, held = 0;
     std::array<Vec3, 4> x;
     for (std::size_t t = begin; t < end; ++t) {
       if (!tet_on_[t]) continue;
@@ -228,14 +229,20 @@ void TissueModel::evaluate_elements(double& energy) {
       if (corot) {
         evaluate_corotational(rest_[t], x, rotation_[t], corot_[t]);
         e += corot_[t].energy;
+        held += corot_[t].held ? 1 : 0;
       } else {
         evaluate_mass_spring(rest_[t], x, spring_[t]);
         e += spring_[t].energy;
+        held += spring_[t].held ? 1 : 0;
       }
     }
     partial_[c] = e;
+    partial_[chunks + c] = held;
   });
-  energy = sum(partial_, chunk_count(nt));
+  energy = sum(partial_, chunks);
+  double held = 0;
+  for (std::size_t c = 0; c < chunks; ++c) held += partial_[chunks + c];
+  return static_cast<std::size_t>(held);
 }
 
 // Row-wise assembly of A = M + dt C + dt^2 K, the right-hand side and the block-Jacobi inverse.
@@ -333,7 +340,7 @@ StepStats TissueModel::step(double dt) {
   const std::size_t nn = rows_.size();
   const int threads = settings_.threads;
 
-  evaluate_elements(st.elastic_energy);
+  st.strain_limited = evaluate_elements(st.elastic_energy);
   if (!std::isfinite(st.elastic_energy))
     return fail("non-finite elastic energy (NaN or inf in the positions)");
   assemble(dt);

@@ -89,6 +89,7 @@ struct StepStats {
   bool preconditioner_built = false;  // the two-level preconditioner was (re)built in this step
   double elastic_energy = 0;          // at the start of the step [J]
   double kinetic_energy = 0;          // at the end of the step [J]
+  std::size_t strain_limited = 0;     // elements beyond the strain limit (element.hpp) at the start
   std::string message;                // why, when status == NonFinite
 };
 
@@ -140,7 +141,8 @@ class TissueModel {
   void mark_tet_nodes(std::uint32_t t);
   void refresh();
   void rebuild_row(std::uint32_t i);
-  void evaluate_elements(double& energy);
+  // Forces, stiffness data and energy of every element; returns how many are beyond the strain limit.
+  std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
 

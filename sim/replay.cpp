@@ -255,7 +255,9 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     std::size_t converged = 0, capped = 0, non_finite = 0;
     double iterations = 0, max_residual = 0;
     int max_iterations = 0;
+    std::size_t max_limited = 0;
     for (const StepStats& st : steps) {
+      max_limited = std::max(max_limited, st.strain_limited);
       converged += st.status == StepStatus::Converged ? 1 : 0;
       capped += st.status == StepStatus::IterationCap ? 1 : 0;
       non_finite += st.status == StepStatus::NonFinite ? 1 : 0;
@@ -276,6 +278,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
         {"energy",
          {{"elastic", steps.empty() ? 0.0 : steps.back().elastic_energy},
           {"kinetic", steps.empty() ? 0.0 : steps.back().kinetic_energy}}},
+        {"strain_limited_elements",
+         {{"max", max_limited}, {"last", steps.empty() ? std::size_t{0} : steps.back().strain_limited}}},
         {"wound_opening", sim.wound_opening()}};
   }
   if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);

@@ -254,6 +254,17 @@ TEST_CASE("beyond the strain limit forces are held and stay the gradient of the 
       evaluate(TissueKind::Corotational, t, deform(rest, r * Vec3(1.9, 1, 1).asDiagonal(), Vec3::Zero()))
           .force;
   CHECK((below - 0.9 * at_limit).norm() <= 1e-9 * at_limit.norm());
+  // The elements say when they are held (the tissue model counts them per step).
+  for (const auto& [stretch, held] : {std::pair{1.9, false}, std::pair{3.0, true}}) {
+    const X4 x = deform(rest, r * Vec3(stretch, 1, 1).asDiagonal(), Vec3::Zero());
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    CorotationalState cs;
+    evaluate_corotational(t, x, q, cs);
+    CHECK(cs.held == held);
+    MassSpringState ms;
+    evaluate_mass_spring(t, x, ms);
+    CHECK(ms.held == held);
+  }
 }
 
 TEST_CASE("slivers have their stiffness bounded by the quality floor") {
