@@ -29,9 +29,10 @@
 // a cut cannot make the system arbitrarily ill-conditioned. Mass stays exact. Below kInertQuality
 // an element carries mass only: its gradients would turn position round-off into strain.
 //
-// Strain limit: linear elasticity means nothing far beyond 100 % strain, where only elements the
-// cutter made in deformed tissue go (a sub-tetrahedron whose rest shape is a sliver but whose
-// nodes have moved apart, or one born inverted). There the fixed-R stiffness misses the rotational
+// Strain limit: linear elasticity means nothing far beyond 100 % strain. In a cutting simulation the
+// elements there are mostly ones the cutter made in deformed tissue (a sub-tetrahedron whose rest
+// shape is a sliver but whose nodes have moved apart, or one born inverted; about 1 % of the
+// elements after the default scenario's incision). There the fixed-R stiffness misses the rotational
 // terms, which are of the order of the stress, and the implicit step pumps energy into the element.
 // So the energy is continued linearly (Huber) past |strain| = kStrainLimit: each principal strain of
 // the co-rotational element, its volumetric strain, each spring's strain and the mass-spring
