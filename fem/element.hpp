@@ -92,12 +92,19 @@ struct CorotationalState {
 void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
                            CorotationalState& out);
 
+// Adds s K_ab to k, given u = s V lambda c_a and w = s V mu c_a (s any common factor):
+// s K_ab = u c_b^T + c_b w^T + (w . c_b) I. The assembly scales u and w once per row entry.
+inline void add_corotational_block(Mat3& k, const Vec3& u, const Vec3& w, const Vec3& cb) {
+  k.noalias() += u * cb.transpose() + cb * w.transpose();
+  k.diagonal().array() += w.dot(cb);
+}
+
 // K_ab of the co-rotational element [N/m].
 [[nodiscard]] inline Mat3 corotational_block(const TetRest& rest, const CorotationalState& s, int a, int b) {
-  const auto ca = s.c.col(a), cb = s.c.col(b);
-  Mat3 k = rest.lambda * (ca * cb.transpose()) + rest.mu * (cb * ca.transpose());
-  k.diagonal().array() += rest.mu * ca.dot(cb);
-  return rest.volume * k;
+  const Vec3 ca = s.c.col(a);
+  Mat3 k = Mat3::Zero();
+  add_corotational_block(k, (rest.volume * rest.lambda) * ca, (rest.volume * rest.mu) * ca, s.c.col(b));
+  return k;
 }
 
 struct MassSpringState {

@@ -266,18 +266,12 @@ void TissueModel::assemble(double dt) {
         const double h = dt * m.damping_stiffness + dt * dt;
         mass_term += (1.0 + dt * m.damping_mass) * m.density * rest.mass_volume / 4.0;
         if (corot) {
-          // h K_ab = u c_b^T + c_b w^T + (w . c_b) I with u = h V lambda c_a, w = h V mu c_a
-          // (corotational_block, factored so that each block costs two outer products).
           const CorotationalState& s = corot_[e.tet];
           f += s.force.col(e.local);
           const Vec3 ca = s.c.col(e.local);
           const Vec3 u = (h * rest.volume * rest.lambda) * ca, w = (h * rest.volume * rest.mu) * ca;
-          for (int b = 0; b < 4; ++b) {
-            const Vec3 cb = s.c.col(b);
-            Mat3& blk = row.blocks[e.block[static_cast<size_t>(b)]];
-            blk.noalias() += u * cb.transpose() + cb * w.transpose();
-            blk.diagonal().array() += w.dot(cb);
-          }
+          for (int b = 0; b < 4; ++b)
+            add_corotational_block(row.blocks[e.block[static_cast<size_t>(b)]], u, w, s.c.col(b));
         } else {
           const MassSpringState& s = spring_[e.tet];
           f += s.force.col(e.local);
