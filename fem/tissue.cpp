@@ -52,7 +52,7 @@ void TissueModel::grow() {
     mass_.resize(nn, 0.0);
     rows_.resize(nn);
     entries_.resize(nn);
-    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_}) v->resize(nn, Vec3::Zero());
+    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_}) v->resize(nn, Vec3::Zero());
     diag_inverse_.resize(nn, Mat3::Identity());
   }
   const std::size_t chunks = std::max(chunk_count(nn), chunk_count(nt));
@@ -205,6 +205,10 @@ void TissueModel::refresh() {
     rebuild_row(i);
     dirty_[i] = 0;
   }
+  const auto middle = static_cast<std::ptrdiff_t>(changed_.size());
+  changed_.insert(changed_.end(), dirty_list_.begin(), dirty_list_.end());
+  std::inplace_merge(changed_.begin(), changed_.begin() + middle, changed_.end());
+  changed_.erase(std::unique(changed_.begin(), changed_.end()), changed_.end());
   dirty_list_.clear();
 #ifdef SCALPEL_VALIDATE
   for (std::uint32_t t = 0; t < tet_on_.size(); ++t)
@@ -293,6 +297,118 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
   return scalpel::multiply(rows_, active_, x, y, partial_, settings_.threads);
 }
 
+// Block-Jacobi CG on the rows of local_ (the nodes within local_rings of a changed row), with v
+// outside them held: v_L += A_LL^{-1} r_L approximately; r_ is kept current everywhere.
+double TissueModel::solve_locally(double rr, double target, StepStats& st) {
+  const std::size_t nn = rows_.size();
+  in_local_.assign(nn, 0);
+  local_.clear();
+  for (const std::uint32_t i : changed_)
+    if (i < nn && active_[i] && !in_local_[i]) {
+      in_local_[i] = 1;
+      local_.push_back(i);
+    }
+  for (int ring = 0, begin = 0; ring < settings_.local_rings; ++ring) {
+    const auto end = static_cast<int>(local_.size());
+    for (int k = begin; k < end; ++k)
+      for (const std::uint32_t j : rows_[local_[static_cast<std::size_t>(k)]].cols)
+        if (active_[j] && !in_local_[j]) {
+          in_local_[j] = 1;
+          local_.push_back(j);
+        }
+    begin = end;
+  }
+  std::size_t active_count = 0;
+  for (std::size_t i = 0; i < nn; ++i) active_count += active_[i];
+  // A change that reaches half of the tissue (the first step, a severed part) is not local.
+  if (local_.empty() || 2 * local_.size() > active_count) return rr;
+  const int max_iterations =
+      std::min(settings_.local_max_iterations,
+               static_cast<int>(settings_.local_budget * static_cast<double>(active_count) /
+                                static_cast<double>(local_.size())));
+  std::sort(local_.begin(), local_.end());
+  st.local_nodes = local_.size();
+
+  const int threads = settings_.threads;
+  const std::size_t nl = local_.size(), chunks = chunk_count(nl);
+  std::vector<double>& part = partial_;
+  for (std::size_t i = 0; i < nn; ++i) p_[i].setZero();  // the held velocities enter only through r
+  for_chunks(threads, nl, [&](std::size_t c, std::size_t begin, std::size_t end) {
+    double rz_c = 0, rr_c = 0;
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::uint32_t i = local_[k];
+      z_[i] = diag_inverse_[i] * r_[i];
+      p_[i] = z_[i];
+      dv_[i].setZero();
+      rz_c += r_[i].dot(z_[i]);
+      rr_c += r_[i].squaredNorm();
+    }
+    part[c] = rz_c;
+    part[chunks + c] = rr_c;
+  });
+  double rz = sum(part, chunks), rl = 0;
+  for (std::size_t c = 0; c < chunks; ++c) rl += part[chunks + c];
+  const double stop = std::max(settings_.local_tolerance * std::sqrt(rl), target);
+  int it = 0;
+  while (std::sqrt(rl) > stop && it < max_iterations) {
+    for_chunks(threads, nl, [&](std::size_t c, std::size_t begin, std::size_t end) {
+      double pq_c = 0;
+      for (std::size_t k = begin; k < end; ++k) {
+        const std::uint32_t i = local_[k];
+        const BlockRow& row = rows_[i];
+        Vec3 y = Vec3::Zero();
+        for (std::size_t b = 0; b < row.cols.size(); ++b) y.noalias() += row.blocks[b] * p_[row.cols[b]];
+        q_[i] = y;
+        pq_c += p_[i].dot(y);
+      }
+      part[c] = pq_c;
+    });
+    const double pq = sum(part, chunks);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    for_chunks(threads, nl, [&](std::size_t c, std::size_t begin, std::size_t end) {
+      double rz_c = 0, rr_c = 0;
+      for (std::size_t k = begin; k < end; ++k) {
+        const std::uint32_t i = local_[k];
+        dv_[i] += alpha * p_[i];
+        r_[i] -= alpha * q_[i];
+        z_[i] = diag_inverse_[i] * r_[i];
+        rz_c += r_[i].dot(z_[i]);
+        rr_c += r_[i].squaredNorm();
+      }
+      part[c] = rz_c;
+      part[chunks + c] = rr_c;
+    });
+    const double rz_new = sum(part, chunks);
+    rl = 0;
+    for (std::size_t c = 0; c < chunks; ++c) rl += part[chunks + c];
+    const double beta = rz_new / rz;
+    rz = rz_new;
+    for_chunks(threads, nl, [&](std::size_t, std::size_t begin, std::size_t end) {
+      for (std::size_t k = begin; k < end; ++k) p_[local_[k]] = z_[local_[k]] + beta * p_[local_[k]];
+    });
+    ++it;
+  }
+  st.local_iterations = it;
+  // r_L is current; the ring just outside L sees the update through its columns in L.
+  for (const std::uint32_t i : local_) v_[i] += dv_[i];
+  for (const std::uint32_t i : local_)
+    for (const std::uint32_t j : rows_[i].cols)
+      if (active_[j] && !in_local_[j]) {
+        in_local_[j] = 2;  // updated once
+        const BlockRow& row = rows_[j];
+        for (std::size_t b = 0; b < row.cols.size(); ++b)
+          if (in_local_[row.cols[b]] == 1) r_[j].noalias() -= row.blocks[b] * dv_[row.cols[b]];
+      }
+  const std::size_t nchunks = chunk_count(nn);
+  for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+    double rr_c = 0;
+    for (std::size_t i = begin; i < end; ++i) rr_c += r_[i].squaredNorm();
+    part[c] = rr_c;
+  });
+  return sum(part, nchunks);
+}
+
 double TissueModel::elastic_energy() {
   refresh();
   double e = 0;
@@ -372,6 +488,11 @@ StepStats TissueModel::step(double dt) {
   if (!std::isfinite(b_norm) || !std::isfinite(rr)) return fail("non-finite forces or velocities");
   st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
   const double target = settings_.tolerance * b_norm;
+  // After a topology change: the local solve first (see tissue.hpp); what it leaves is smooth.
+  const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
+  if (local) rr = solve_locally(rr, target, st);
+  changed_.clear();
+  if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
 
   // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
   // a cut created, and rebuilt at the step after it was found stale (too many two-level iterations,
@@ -426,9 +547,9 @@ StepStats TissueModel::step(double dt) {
   // Escalation: a V(1,1) cycle costs about three block-Jacobi iterations, so a step whose warm start
   // is good stays on block-Jacobi; after two_level_after iterations CG restarts from its current
   // iterate with the two-level cycle (a restart keeps v and r; only the search direction is lost).
-  // A warm start that removed less than half of the residual is a cold start: the cycle from the
-  // first iteration.
-  const int escalate = st.initial_residual > 0.5 ? 0 : settings_.two_level_after;
+  // A warm start that removed less than half of the residual is a cold start, and what a local
+  // solve leaves is smooth: the cycle from the first iteration.
+  const int escalate = (st.initial_residual > 0.5 || st.local_nodes > 0) ? 0 : settings_.two_level_after;
   cycle = two_level && coarse_.factored() && escalate <= 0;
   if (std::sqrt(rr) > target) restart();
   while (std::sqrt(rr) > target && it < settings_.max_iterations) {

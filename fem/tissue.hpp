@@ -23,6 +23,17 @@
 // their rotation from the tetrahedron they descend from (mesh.parent). See fem/element.hpp for the element
 // models, prestress and the sliver remedy.
 //
+// Local solve after a cut: a topology change leaves the warm start wrong only near the rows it
+// rebuilt (the released prestress pulls on the new crack faces; the rest of the state is still the
+// last step's solution). Before the global solve those rows and local_rings rings of neighbours
+// are solved with the velocities outside held, by block-Jacobi CG: adaptive relaxation where the
+// residual is (Rüde, "Fully adaptive multigrid methods", SIAM J. Numer. Anal. 30, 1993). What is left
+// is smooth and far-reaching, which the two-level cycle removes in a few iterations. During the
+// progressive incision of bench/bench_fem.cpp (20 thousand tetrahedra) the four rings hold the
+// whole residual of the warm start to three digits, and a step after a cut needs 3.7 CG iterations
+// on average instead of 17. A change that reaches half of the active nodes (the first step, a severed part)
+// is not local and is solved globally at once. The local solve changes the start, not the solution.
+//
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
 // a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
 // or stiffness the sliver remedy scaled by less than 1/100. The solve lets such a node fall freely
@@ -72,6 +83,14 @@ struct TissueSettings {
   int coarse_rebuild_iterations = 40;
   double coarse_rebuild_fraction = 0.1;
   TwoLevelOptions two_level = {};  // smoother and prolongator of the two-level cycle (fem/two_level.hpp)
+  // After a topology change, the rows it rebuilt and local_rings rings of neighbours around them are
+  // solved first (block-Jacobi CG with the velocities outside held), to local_tolerance of their
+  // residual, in at most local_max_iterations and at most the work of local_budget products with
+  // the whole matrix; 0 rings: off. See above.
+  int local_rings = 4;
+  double local_tolerance = 1e-3;
+  int local_max_iterations = 100;
+  double local_budget = 16;
 };
 
 enum class StepStatus {
@@ -90,6 +109,8 @@ struct StepStats {
   double elastic_energy = 0;          // at the start of the step [J]
   double kinetic_energy = 0;          // at the end of the step [J]
   std::size_t strain_limited = 0;     // elements beyond the strain limit (element.hpp) at the start
+  std::size_t local_nodes = 0;        // nodes of the local solve after a topology change (0: none)
+  int local_iterations = 0;           // its CG iterations (not counted in cg_iterations)
   std::string message;                // why, when status == NonFinite
 };
 
@@ -145,6 +166,8 @@ class TissueModel {
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
+  // The local solve around changed_ (see above); returns the new ||b - A v||^2.
+  double solve_locally(double rr, double target, StepStats& st);
 
   TetMesh& mesh_;
   std::vector<Material> materials_;
@@ -171,9 +194,12 @@ class TissueModel {
   bool coarse_stale_ = true;                                   // rebuild before the next solve
   std::vector<std::pair<std::uint32_t, std::uint32_t>> born_;  // (node, first parent) since the last step
   std::vector<std::uint32_t> dirty_list_;
+  std::vector<std::uint32_t> changed_;  // rows rebuilt since the last step, sorted
+  std::vector<std::uint32_t> local_;    // the nodes of the local solve, sorted
+  std::vector<std::uint8_t> in_local_;
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
-  std::vector<Vec3> b_, v_, r_, z_, p_, q_;
+  std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_;
   std::vector<Mat3> diag_inverse_;
   std::vector<double> partial_;
 };

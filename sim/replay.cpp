@@ -255,9 +255,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     std::size_t converged = 0, capped = 0, non_finite = 0;
     double iterations = 0, max_residual = 0;
     int max_iterations = 0;
-    std::size_t max_limited = 0;
+    std::size_t max_limited = 0, local_steps = 0, max_local_nodes = 0;
+    double local_iterations = 0;
     for (const StepStats& st : steps) {
       max_limited = std::max(max_limited, st.strain_limited);
+      if (st.local_nodes > 0) {
+        ++local_steps;
+        local_iterations += st.local_iterations;
+        max_local_nodes = std::max(max_local_nodes, st.local_nodes);
+      }
       converged += st.status == StepStatus::Converged ? 1 : 0;
       capped += st.status == StepStatus::IterationCap ? 1 : 0;
       non_finite += st.status == StepStatus::NonFinite ? 1 : 0;
@@ -274,6 +280,10 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
         {"iteration_cap", capped},
         {"non_finite", non_finite},
         {"cg_iterations", {{"mean", iterations / n}, {"max", max_iterations}}},
+        {"local_solves",
+         {{"steps", local_steps},
+          {"iterations_mean", local_iterations / std::max<double>(1.0, static_cast<double>(local_steps))},
+          {"nodes_max", max_local_nodes}}},
         {"relative_residual", {{"max", max_residual}, {"last", steps.empty() ? 0.0 : steps.back().residual}}},
         {"energy",
          {{"elastic", steps.empty() ? 0.0 : steps.back().elastic_energy},

@@ -37,6 +37,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   settings.kind = scenario_.tissue.model;
   settings.tolerance = scenario_.tissue.cg_tolerance;
   settings.max_iterations = scenario_.tissue.cg_max_iterations;
+  settings.local_rings = scenario_.tissue.local_rings;
   settings.gravity = scenario_.tissue.gravity;
   tissue_ = std::make_unique<TissueModel>(mesh_, std::move(materials), settings);
   for (const NodeId n : select_fixed_nodes(scenario_, mesh_)) tissue_->set_fixed(n);

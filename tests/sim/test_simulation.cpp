@@ -1,6 +1,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include "cutting/input_error.hpp"
@@ -177,4 +178,84 @@ TEST_CASE("tissue steps are marked when a cut changed the mesh since the step be
   REQUIRE(after.size() == sim.tissue_step_seconds().size());
   REQUIRE(after.size() == 5);
   CHECK(after == std::vector<std::uint8_t>{0, 0, 0, 1, 0});
+}
+
+namespace {
+
+// A 4 x 4 cm three-layer slab, as in bench/bench_fem.cpp: 3 mm deep, the blade runs 12 mm at
+// 12 mm/s after 2 s of settling. Returns the simulation after the blade is lifted out.
+std::unique_ptr<Simulation> progressive_incision(int local_rings) {
+  const std::string text = R"(
+name: progressive
+mesh:
+  generator: slab
+  size: [0.04, 0.04]
+  cells: [12, 12]
+  layers:
+    - {name: epidermis, thickness: 0.002, cells: 2}
+    - {name: dermis, thickness: 0.003, cells: 2}
+    - {name: fat, thickness: 0.005, cells: 2}
+materials:
+  epidermis: {young: 1.0e5, poisson: 0.45, density: 1100, prestress: 1.1}
+  dermis: {young: 5.0e4, poisson: 0.45, density: 1100, prestress: 1.1}
+  fat: {young: 1.0e4, poisson: 0.45, density: 1100, prestress: 1.1}
+fixed: [{side: bottom}, {side: x_min}, {side: x_max}, {side: y_min}, {side: y_max}]
+tool:
+  blade: {back: [0, 0, 0.012], tip: [0, 0, 0], edge: [0, 1, 0]}
+tissue: {model: corotational, rate: 60, solver: {tolerance: 1.0e-3, local_rings: )" +
+                           std::to_string(local_rings) + "}}\n";
+  auto sim = std::make_unique<Simulation>(parse_scenario(text, "progressive.yaml", "."));
+  ForceChannel forces;
+  ToolSample s;
+  const auto at = [&](double y, double z) {
+    s.position = Vec3(0.0003, y, z);
+    sim->on_sample(s);
+    s.t += 1e-3;
+    const int frame = static_cast<int>(std::floor(s.t * 60 + 1e-9));
+    if (frame > static_cast<int>(std::floor((s.t - 1e-3) * 60 + 1e-9))) sim->end_frame(frame / 60.0, forces);
+  };
+  for (int k = 0; k < 2000; ++k) at(-0.006, 0.004);
+  for (int k = 0; k < 500; ++k) at(-0.006, 0.004 - 0.007 * k / 500);
+  for (int k = 0; k < 1000; ++k) at(-0.006 + 0.012 * k / 1000, -0.003);
+  for (int k = 0; k < 500; ++k) at(0.006, -0.003 + 0.007 * k / 500);
+  return sim;
+}
+
+}  // namespace
+
+TEST_CASE("a progressive incision: each step after a cut is solved near the cut first") {
+  const auto plain = progressive_incision(0);
+  const auto local = progressive_incision(4);
+  const auto cycles_after_cuts = [](const Simulation& sim, std::size_t& steps, std::size_t& local_steps) {
+    int cycles = 0;
+    for (std::size_t k = 0; k < sim.tissue_steps().size(); ++k) {
+      if (!sim.tissue_step_after_cut()[k]) continue;
+      ++steps;
+      local_steps += sim.tissue_steps()[k].local_nodes > 0 ? 1 : 0;
+      CHECK(sim.tissue_steps()[k].status == StepStatus::Converged);
+      cycles += sim.tissue_steps()[k].cycle_iterations;
+    }
+    return cycles;
+  };
+  std::size_t steps_plain = 0, steps_local = 0, solved_plain = 0, solved_local = 0;
+  const int cycles_plain = cycles_after_cuts(*plain, steps_plain, solved_plain);
+  const int cycles_local = cycles_after_cuts(*local, steps_local, solved_local);
+  CAPTURE(cycles_plain);
+  CAPTURE(cycles_local);
+  REQUIRE(steps_plain > 30);  // the blade cut in most frames of its 1.5 s in the tissue
+  CHECK(steps_local == steps_plain);
+  CHECK(solved_plain == 0);
+  CHECK(solved_local == steps_local);
+  CHECK(2 * cycles_local < cycles_plain);  // measured: 326 against 718
+  // The same wound: the two runs differ by the solver tolerance, not by the cut.
+  REQUIRE(local->mesh().node_capacity() == plain->mesh().node_capacity());
+  double gap = 0, moved = 0;
+  for (std::uint32_t i = 0; i < plain->mesh().node_capacity(); ++i) {
+    if (!plain->mesh().node_slot_alive(i)) continue;
+    gap = std::max(gap, (local->mesh().positions()[i] - plain->mesh().positions()[i]).norm());
+    moved = std::max(moved, (plain->mesh().positions()[i] - plain->mesh().rest_positions()[i]).norm());
+  }
+  CAPTURE(gap);
+  CAPTURE(moved);
+  CHECK(gap < 1e-3 * moved);  // measured: 2e-8 m against 2.9 mm
 }
