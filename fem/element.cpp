@@ -75,7 +75,7 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) 
     if (!(w > 1e-15)) break;
     q = q * Eigen::Quaterniond(Eigen::AngleAxisd(w, phi / w));
     q.normalize();
-    if (newton && w < 1e-8) break;  // quadratic convergence: the remaining error is O(w^2)
+    if (newton && w < 1e-6) break;  // quadratic convergence: the remaining error is O(w^2)
   }
 }
 

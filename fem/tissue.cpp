@@ -329,64 +329,42 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
   std::sort(local_.begin(), local_.end());
   st.local_nodes = local_.size();
 
-  const int threads = settings_.threads;
-  const std::size_t nl = local_.size(), chunks = chunk_count(nl);
-  std::vector<double>& part = partial_;
+  // Serial: a few hundred rows, where a parallel region per vector operation costs more than the
+  // work.
   for (std::size_t i = 0; i < nn; ++i) p_[i].setZero();  // the held velocities enter only through r
-  for_chunks(threads, nl, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double rz_c = 0, rr_c = 0;
-    for (std::size_t k = begin; k < end; ++k) {
-      const std::uint32_t i = local_[k];
-      z_[i] = diag_inverse_[i] * r_[i];
-      p_[i] = z_[i];
-      dv_[i].setZero();
-      rz_c += r_[i].dot(z_[i]);
-      rr_c += r_[i].squaredNorm();
-    }
-    part[c] = rz_c;
-    part[chunks + c] = rr_c;
-  });
-  double rz = sum(part, chunks), rl = 0;
-  for (std::size_t c = 0; c < chunks; ++c) rl += part[chunks + c];
+  double rz = 0, rl = 0;
+  for (const std::uint32_t i : local_) {
+    z_[i] = diag_inverse_[i] * r_[i];
+    p_[i] = z_[i];
+    dv_[i].setZero();
+    rz += r_[i].dot(z_[i]);
+    rl += r_[i].squaredNorm();
+  }
   const double stop = std::max(settings_.local_tolerance * std::sqrt(rl), target);
   int it = 0;
   while (std::sqrt(rl) > stop && it < max_iterations) {
-    for_chunks(threads, nl, [&](std::size_t c, std::size_t begin, std::size_t end) {
-      double pq_c = 0;
-      for (std::size_t k = begin; k < end; ++k) {
-        const std::uint32_t i = local_[k];
-        const BlockRow& row = rows_[i];
-        Vec3 y = Vec3::Zero();
-        for (std::size_t b = 0; b < row.cols.size(); ++b) y.noalias() += row.blocks[b] * p_[row.cols[b]];
-        q_[i] = y;
-        pq_c += p_[i].dot(y);
-      }
-      part[c] = pq_c;
-    });
-    const double pq = sum(part, chunks);
+    double pq = 0;
+    for (const std::uint32_t i : local_) {
+      const BlockRow& row = rows_[i];
+      Vec3 y = Vec3::Zero();
+      for (std::size_t b = 0; b < row.cols.size(); ++b) y.noalias() += row.blocks[b] * p_[row.cols[b]];
+      q_[i] = y;
+      pq += p_[i].dot(y);
+    }
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
-    for_chunks(threads, nl, [&](std::size_t c, std::size_t begin, std::size_t end) {
-      double rz_c = 0, rr_c = 0;
-      for (std::size_t k = begin; k < end; ++k) {
-        const std::uint32_t i = local_[k];
-        dv_[i] += alpha * p_[i];
-        r_[i] -= alpha * q_[i];
-        z_[i] = diag_inverse_[i] * r_[i];
-        rz_c += r_[i].dot(z_[i]);
-        rr_c += r_[i].squaredNorm();
-      }
-      part[c] = rz_c;
-      part[chunks + c] = rr_c;
-    });
-    const double rz_new = sum(part, chunks);
+    double rz_new = 0;
     rl = 0;
-    for (std::size_t c = 0; c < chunks; ++c) rl += part[chunks + c];
+    for (const std::uint32_t i : local_) {
+      dv_[i] += alpha * p_[i];
+      r_[i] -= alpha * q_[i];
+      z_[i] = diag_inverse_[i] * r_[i];
+      rz_new += r_[i].dot(z_[i]);
+      rl += r_[i].squaredNorm();
+    }
     const double beta = rz_new / rz;
     rz = rz_new;
-    for_chunks(threads, nl, [&](std::size_t, std::size_t begin, std::size_t end) {
-      for (std::size_t k = begin; k < end; ++k) p_[local_[k]] = z_[local_[k]] + beta * p_[local_[k]];
-    });
+    for (const std::uint32_t i : local_) p_[i] = z_[i] + beta * p_[i];
     ++it;
   }
   st.local_iterations = it;
@@ -400,13 +378,13 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
         for (std::size_t b = 0; b < row.cols.size(); ++b)
           if (in_local_[row.cols[b]] == 1) r_[j].noalias() -= row.blocks[b] * dv_[row.cols[b]];
       }
-  const std::size_t nchunks = chunk_count(nn);
-  for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+  std::vector<double>& part = partial_;
+  for_chunks(settings_.threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
     double rr_c = 0;
     for (std::size_t i = begin; i < end; ++i) rr_c += r_[i].squaredNorm();
     part[c] = rr_c;
   });
-  return sum(part, nchunks);
+  return sum(part, chunk_count(nn));
 }
 
 double TissueModel::elastic_energy() {
