@@ -159,7 +159,14 @@ Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s) {
 }
 
 Mat12 mass_spring_stiffness(const TetRest& rest, const MassSpringState& s) {
-  return full_matrix([&](int a, int b) { return mass_spring_block(rest, s, a, b); });
+  std::array<Mat3, 4> row;
+  Mat12 k;
+  for (int a = 0; a < 4; ++a) {
+    for (Mat3& b : row) b.setZero();
+    add_mass_spring_row(rest, s, a, 1.0, {&row[0], &row[1], &row[2], &row[3]});
+    for (int b = 0; b < 4; ++b) k.block<3, 3>(3 * a, 3 * b) = row[static_cast<size_t>(b)];
+  }
+  return k;
 }
 
 }  // namespace scalpel

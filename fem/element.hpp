@@ -131,16 +131,21 @@ inline constexpr std::array<std::array<int, 4>, 4> kEdgeOf = {
   return rest.spring_k[static_cast<size_t>(e)] * k;
 }
 
-// K_ab of the mass-spring element [N/m].
-[[nodiscard]] inline Mat3 mass_spring_block(const TetRest& rest, const MassSpringState& s, int a, int b) {
-  Mat3 k = rest.volume_k * (s.volume_grad.col(a) * s.volume_grad.col(b).transpose());
-  if (a == b) {
-    for (int o = 0; o < 4; ++o)
-      if (o != a) k += spring_block(rest, s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(o)]);
-  } else {
-    k -= spring_block(rest, s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(b)]);
+// Adds h K_ab of the mass-spring element to *out[b] for b = 0..3 (row a) [N/m]: the volume term
+// h kappa/V g_a g_b^T, minus the spring block of edge ab off the diagonal and plus the three spring
+// blocks of the edges at a on it. Each spring block is formed once per row.
+inline void add_mass_spring_row(const TetRest& rest, const MassSpringState& s, int a, double h,
+                                const std::array<Mat3*, 4>& out) {
+  const Vec3 ga = (h * rest.volume_k) * s.volume_grad.col(a);
+  Mat3 diag = ga * s.volume_grad.col(a).transpose();
+  for (int b = 0; b < 4; ++b) {
+    if (b == a) continue;
+    const Mat3 kab = h * spring_block(rest, s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(b)]);
+    diag += kab;
+    out[static_cast<size_t>(b)]->noalias() += ga * s.volume_grad.col(b).transpose();
+    *out[static_cast<size_t>(b)] -= kab;
   }
-  return k;
+  *out[static_cast<size_t>(a)] += diag;
 }
 
 // Full 12x12 stiffness from the same blocks the solver assembles (for tests and tools).

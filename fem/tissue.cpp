@@ -279,8 +279,9 @@ void TissueModel::assemble(double dt) {
         } else {
           const MassSpringState& s = spring_[e.tet];
           f += s.force.col(e.local);
-          for (int b = 0; b < 4; ++b)
-            row.blocks[e.block[static_cast<size_t>(b)]] += h * mass_spring_block(rest, s, e.local, b);
+          add_mass_spring_row(rest, s, e.local, h,
+                              {&row.blocks[e.block[0]], &row.blocks[e.block[1]], &row.blocks[e.block[2]],
+                               &row.blocks[e.block[3]]});
         }
       }
       row.blocks[row.diag].diagonal().array() += mass_term;
