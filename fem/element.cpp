@@ -123,9 +123,11 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
     const double limit = kStrainLimit * rest.rest_length[e];
     const double held = std::clamp(stretch, -limit, limit);
     out.held = out.held || held != stretch;
-    out.direction[e] = l > 0 ? Vec3(d / l) : Vec3::UnitX();
-    out.tension[e] = l > 0 ? std::max(0.0, 1.0 - rest.rest_length[e] / l) : 0.0;
-    const Vec3 fs = rest.spring_k[e] * held * out.direction[e];
+    const Vec3 n = l > 0 ? Vec3(d / l) : Vec3::UnitX();
+    const double t = l > 0 ? std::max(0.0, 1.0 - rest.rest_length[e] / l) : 0.0;
+    out.axial[e] = std::sqrt(rest.spring_k[e] * (1.0 - t)) * n;
+    out.transverse[e] = rest.spring_k[e] * t;
+    const Vec3 fs = rest.spring_k[e] * held * n;
     out.force.col(i) += fs;
     out.force.col(j) -= fs;
     energy += rest.spring_k[e] * held * (stretch - 0.5 * held);

@@ -107,13 +107,15 @@ inline void add_corotational_block(Mat3& k, const Vec3& u, const Vec3& w, const 
   return k;
 }
 
+// The spring stiffness of edge e is k_e (n n^T + t (I - n n^T)) = a a^T + d I with the unit edge
+// vector n, the transverse factor t = max(0, 1 - L_e / l_e), a = sqrt(k_e (1 - t)) n, d = k_e t.
 struct MassSpringState {
-  std::array<Vec3, 6> direction;  // unit edge vectors n_e
-  std::array<double, 6> tension;  // clamped transverse factor max(0, 1 - L_e / l_e)
-  Mat34 volume_grad;              // d vol / d x_a [m^2]
-  Mat34 force;                    // [N]
-  double energy;                  // [J]
-  bool held;                      // a strain is beyond the strain limit
+  std::array<Vec3, 6> axial;         // a_e [sqrt(N/m)]
+  std::array<double, 6> transverse;  // d_e [N/m]
+  Mat34 volume_grad;                 // d vol / d x_a [m^2]
+  Mat34 force;                       // [N]
+  double energy;                     // [J]
+  bool held;                         // a strain is beyond the strain limit
 };
 
 void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out);
@@ -122,13 +124,12 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
 inline constexpr std::array<std::array<int, 4>, 4> kEdgeOf = {
     {{-1, 0, 1, 2}, {0, -1, 3, 4}, {1, 3, -1, 5}, {2, 4, 5, -1}}};
 
-// Spring stiffness of edge e: k_e (n n^T + s (I - n n^T)) [N/m].
-[[nodiscard]] inline Mat3 spring_block(const TetRest& rest, const MassSpringState& s, int e) {
-  const Vec3& n = s.direction[static_cast<size_t>(e)];
-  const double t = s.tension[static_cast<size_t>(e)];
-  Mat3 k = (1.0 - t) * (n * n.transpose());
-  k.diagonal().array() += t;
-  return rest.spring_k[static_cast<size_t>(e)] * k;
+// Spring stiffness of edge e: a_e a_e^T + d_e I (see MassSpringState) [N/m].
+[[nodiscard]] inline Mat3 spring_block(const MassSpringState& s, int e) {
+  const Vec3& a = s.axial[static_cast<size_t>(e)];
+  Mat3 k = a * a.transpose();
+  k.diagonal().array() += s.transverse[static_cast<size_t>(e)];
+  return k;
 }
 
 // Adds h K_ab of the mass-spring element to *out[b] for b = 0..3 (row a) [N/m]: the volume term
@@ -140,7 +141,7 @@ inline void add_mass_spring_row(const TetRest& rest, const MassSpringState& s, i
   Mat3 diag = ga * s.volume_grad.col(a).transpose();
   for (int b = 0; b < 4; ++b) {
     if (b == a) continue;
-    const Mat3 kab = h * spring_block(rest, s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(b)]);
+    const Mat3 kab = h * spring_block(s, kEdgeOf[static_cast<size_t>(a)][static_cast<size_t>(b)]);
     diag += kab;
     out[static_cast<size_t>(b)]->noalias() += ga * s.volume_grad.col(b).transpose();
     *out[static_cast<size_t>(b)] -= kab;
