@@ -14,9 +14,7 @@ double multiply(std::span<const BlockRow> a, std::span<const std::uint8_t> activ
         y[i].setZero();
         continue;
       }
-      const BlockRow& row = a[i];
-      Vec3 s = Vec3::Zero();
-      for (std::size_t k = 0; k < row.cols.size(); ++k) s.noalias() += row.blocks[k] * x[row.cols[k]];
+      const Vec3 s = row_product(a[i], x);
       y[i] = s;
       d += x[i].dot(s);
     }

@@ -17,6 +17,13 @@ struct BlockRow {
   std::uint32_t diag = 0;
 };
 
+// (A x)_i for one block row.
+[[nodiscard]] inline Vec3 row_product(const BlockRow& row, const std::vector<Vec3>& x) {
+  Vec3 s = Vec3::Zero();
+  for (std::size_t k = 0; k < row.cols.size(); ++k) s.noalias() += row.blocks[k] * x[row.cols[k]];
+  return s;
+}
+
 // y = A x over the active rows (others get 0), returns x . y. partial holds chunk_count(n) sums.
 double multiply(std::span<const BlockRow> a, std::span<const std::uint8_t> active, const std::vector<Vec3>& x,
                 std::vector<Vec3>& y, std::vector<double>& partial, int threads);

@@ -319,8 +319,7 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
         }
     begin = end;
   }
-  std::size_t active_count = 0;
-  for (std::size_t i = 0; i < nn; ++i) active_count += active_[i];
+  const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
   // A change that reaches half of the tissue (the first step, a severed part) is not local.
   if (local_.empty() || 2 * local_.size() > active_count) return rr;
   const int max_iterations =
@@ -346,11 +345,8 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
   while (std::sqrt(rl) > stop && it < max_iterations) {
     double pq = 0;
     for (const std::uint32_t i : local_) {
-      const BlockRow& row = rows_[i];
-      Vec3 y = Vec3::Zero();
-      for (std::size_t b = 0; b < row.cols.size(); ++b) y.noalias() += row.blocks[b] * p_[row.cols[b]];
-      q_[i] = y;
-      pq += p_[i].dot(y);
+      q_[i] = row_product(rows_[i], p_);
+      pq += p_[i].dot(q_[i]);
     }
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
@@ -485,8 +481,7 @@ StepStats TissueModel::step(double dt) {
       st.preconditioner_built = true;
     } else if (!born_.empty()) {
       for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
-      std::size_t active_count = 0;
-      for (std::size_t i = 0; i < nn; ++i) active_count += active_[i];
+      const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
       coarse_stale_ = static_cast<double>(coarse_.extended()) >
                       settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
     }

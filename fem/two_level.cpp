@@ -19,13 +19,6 @@ Mat3 cross_matrix(const Vec3& d) {
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-// (A x)_i for one block row.
-Vec3 row_product(const BlockRow& row, const std::vector<Vec3>& x) {
-  Vec3 s = Vec3::Zero();
-  for (std::size_t k = 0; k < row.cols.size(); ++k) s.noalias() += row.blocks[k] * x[row.cols[k]];
-  return s;
-}
-
 // Adds `value` to the block of `aggregate` in a short list kept in first-seen order.
 template <class Entry, class Block>
 void accumulate(std::vector<Entry>& list, std::uint32_t aggregate, const Block& value) {
