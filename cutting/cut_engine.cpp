@@ -24,7 +24,9 @@ struct CutEngine::CutNode {
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // normal of the swept surface where it was cut (last sample)
-  std::vector<NodeId> copies;        // real nodes, one per group (group_of says which)
+  // Shared with units promoted within a stroke (§6): it stays where it is and gains no copy.
+  bool pinned = false;
+  std::vector<NodeId> copies;  // real nodes, one per group (group_of says which)
   using GroupEntry = CutNodeGroup;
   std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
   // The copy sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses (0 if not grouped).
@@ -52,6 +54,8 @@ void CutTotals::add(const CutStepStats& s) {
   recursions += s.recursions;
   promoted_tets += s.promoted_tets;
   recursion_fallbacks += s.recursion_fallbacks;
+  stroke_recursions += s.stroke_recursions;
+  sealed_events += s.sealed_events;
   max_recursion_depth = std::max(max_recursion_depth, s.recursion_depth);
   tets_created += s.tets_created;
   tets_removed += s.tets_removed;
@@ -284,7 +288,7 @@ void CutEngine::place_cut_node(std::uint32_t id) {
 // has none, and takes the middle of its trace (the average of the trace's end points on the face).
 void CutEngine::update_face_position(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
-  if (n.copies.size() > 1) return;  // the crack has opened here: the node is final
+  if (n.copies.size() > 1 || n.pinned) return;  // the crack has opened here, or promoted units hold it
   const Key3& k = n.key;
   const Vec3 pa = coarse_.positions()[k[0]], pb = coarse_.positions()[k[1]], pc = coarse_.positions()[k[2]];
   Vec3 w;
@@ -571,6 +575,10 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
         continue;
       }
     }
+    if (n.pinned) {  // promoted units hold its copies: the crack stays closed here
+      copy_of[k] = used != kInvalidIndex ? used : 0;
+      continue;
+    }
     NodeParents p;
     if (used != kInvalidIndex) {
       p.parents[0] = n.copies[used];
@@ -753,8 +761,17 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   std::stable_sort(edges.begin(), edges.end(),
                    [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
   std::vector<Key3> new_edges;
+  std::set<Key3> sealed_now;  // sealed faces and edges the blade crossed, counted once
   for (const EdgeCut* e : edges) {
     const Key3 k = edge_key(e->a, e->b);
+    if (sealed(k)) {
+      sealed_now.insert(k);
+      continue;
+    }
+    if (along_former_cut(*e, prev, pose)) {
+      ++stats.recrossed_edges;
+      continue;
+    }
     double t = std::clamp(e->t, options_.min_edge_param, 1.0 - options_.min_edge_param);
     if (e->a > e->b) t = 1.0 - t;  // weights follow the ascending key
     const auto known = edge_nodes_.find(k);
@@ -762,7 +779,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       CutNode& n = cut_nodes_[known->second];
       if (!e->forward) {
         ++stats.backward_crossings;
-      } else if (n.registered) {
+      } else if (n.registered && !n.pinned) {
         // §5, Fig. 9: a forward crossing of a registered edge moves its node to the new crossing
         // and makes it a cut; the subdivision stays.
         n.registered = false;
@@ -799,6 +816,10 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   }
   std::set<Key3> tip_left;
   for (const auto& [k, pierce] : pierced) {
+    if (sealed(k)) {
+      sealed_now.insert(k);
+      continue;
+    }
     const auto [into, point] = pierce;
     const auto known = entry_nodes_.find(k);
     if (known != entry_nodes_.end()) {
@@ -825,6 +846,10 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   std::set<Key3> crossing_now;
   for (const auto& c : sweep_result_.crossings) {
     const Key3 k = sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]);
+    if (sealed(k)) {
+      sealed_now.insert(k);
+      continue;
+    }
     if (!crossing_now.insert(k).second) continue;
     const Vec3 sample = face_bary(k, c.point);
     const Vec3 w = clamp_interior(sample, options_.min_face_bary);
@@ -895,6 +920,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const Key3& k : changed_faces)
     for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
 
+  stats.sealed_events = sealed_now.size();
   commit(affected, left_faces_tets, stats);
   const std::size_t removed = remove_undone_nodes();
   stats.nodes_created = mesh_.node_count() + removed - nodes_before;
@@ -1103,29 +1129,45 @@ Vec3 CutEngine::face_sheet_normal(const Key3& k) const {
 std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const BladePose& pose) const {
   std::set<std::uint32_t> out;
   const auto& x = coarse_.positions();
-  // Every cut unit around `key`, or only those whose subdivision is final.
-  auto add_units = [&](const Key3& key, bool only_complete) {
-    for (const std::uint32_t t : coarse_tets_around(key)) {
-      const auto it = cut_tets_.find(t);
-      if (it != cut_tets_.end() && (!only_complete || it->second.complete)) out.insert(t);
-    }
-  };
-  const Vec3 blade = pose.tip - pose.back;
   auto point_of = [&](const CutNode& n) {
     Vec3 p = Vec3::Zero();
     for (int i = 0; i < (n.kind == CutNode::Kind::Edge ? 2 : 3); ++i)
       p += n.bary[i] * x[n.key[static_cast<size_t>(i)]];
     return p;
   };
+  // Whether a new cut at `point` in unit `c` extends the surface already cut there (the blade
+  // returning to a cut it left, along it: the basic machine goes on) rather than starting another.
+  auto extends = [&](const CoarseTet& c, const Vec3& point, const Vec3& normal, double size) {
+    for (const auto& sub : c.subs)
+      for (const GNode g : sub) {
+        if (!(g & kCutBit)) continue;
+        const CutNode& n = cut_nodes_[static_cast<size_t>(g & ~kCutBit)];
+        if (n.kind != CutNode::Kind::Entry && same_cut(point_of(n), n.sheet_normal, point, normal, size))
+          return true;
+      }
+    return false;
+  };
+  // Every cut unit around `key`; or, for a new cut there, those whose subdivision is final and that
+  // it does not extend.
+  auto add_units = [&](const Key3& key, bool only_complete, const Vec3& point = Vec3::Zero(),
+                       const Vec3& normal = Vec3::Zero(), double size = 0.0) {
+    for (const std::uint32_t t : coarse_tets_around(key)) {
+      const auto it = cut_tets_.find(t);
+      if (it == cut_tets_.end()) continue;
+      if (!only_complete || (it->second.complete && !extends(it->second, point, normal, size))) out.insert(t);
+    }
+  };
+  const Vec3 blade = pose.tip - pose.back;
   auto face_size = [&](const Key3& k) {
     return std::max({(x[k[0]] - x[k[1]]).norm(), (x[k[1]] - x[k[2]]).norm(), (x[k[0]] - x[k[2]]).norm()});
   };
   // A new cut on a face: a second surface there if the face is cut already, otherwise new only
   // to units whose subdivision is final.
   auto face_event = [&](const Key3& k, const Vec3& point, const Vec3& normal) {
+    if (sealed(k)) return;
     const std::uint32_t mid = face_node(mid_nodes_, k);
     if (mid == kInvalidIndex) {
-      add_units(k, true);
+      add_units(k, true, point, normal, face_size(k));
       return;
     }
     const CutNode& m = cut_nodes_[mid];
@@ -1136,9 +1178,10 @@ std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const 
   for (const EdgeCut& e : sweep_result_.edges) {
     if (!e.forward) continue;  // backward crossings cut nothing (Eq. 1)
     const Key3 k = edge_key(e.a, e.b);
+    if (sealed(k) || along_former_cut(e, prev, pose)) continue;
     const std::uint32_t id = edge_node(e.a, e.b);
     if (id == kInvalidIndex) {
-      add_units(k, true);
+      add_units(k, true, e.point, swept_normal(prev, pose, e.s), (x[e.a] - x[e.b]).norm());
       continue;
     }
     const CutNode& n = cut_nodes_[id];
@@ -1184,38 +1227,50 @@ NodeId CutEngine::unit_node(NodeId live) {
 // (its current subdivision, which the blade has left), and its sub-tetrahedra, already live, become
 // units one level deeper. Its cut nodes become their corners, the interconnection nodes the next
 // level's cuts start from. The live mesh does not change; only the engine's units do.
-// Only earlier cuts continue so: a component the blade has touched in this stroke lately
-// (CutOptions::finished_after_steps), or one at the depth bound, keeps its one-level subdivision:
-// the fallback, which stays valid but cannot follow a second surface exactly. So within one stroke,
-// tremble and reversals are the basic machine's (§5); a stroke that reaches an earlier cut
-// continues it recursively.
+// Only the part of a component the blade has left is promoted: units it has not touched for
+// CutOptions::finished_after_steps, or since place(). Within a stroke that is the cut behind the
+// blade, which the stroke reaches again when it curls back or crosses itself; the units around the
+// blade keep the basic machine (§5: tremble, reversals). Between the two parts the unit mesh is not
+// conforming: the cut nodes they share are pinned (they keep their place and their copies) and the
+// faces and edges between them sealed (a crossing there is ignored) until the rest is promoted too.
+// A component at the depth bound keeps its one-level subdivision: the fallback, which stays valid
+// but cannot follow a second surface exactly.
 bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint32_t>& refused,
                         CutStepStats& stats) {
   bool any = false;
+  auto left_behind = [&](std::uint32_t t) {
+    return last_touch_[t] + options_.finished_after_steps < step_count_ || last_touch_[t] < stroke_start_;
+  };
   for (const std::uint32_t seed : units) {
     if (refused.count(seed) || !cut_tets_.count(seed)) continue;
     const std::vector<std::uint32_t> comp = cut_component(seed);
-    bool promotable = true, too_deep = false;
-    std::set<std::uint32_t> ids;
-    for (const std::uint32_t t : comp) {
-      too_deep |= level_[t] >= options_.max_recursion_depth;
+    std::vector<std::uint32_t> part, rest;
+    for (const std::uint32_t t : comp) (left_behind(t) ? part : rest).push_back(t);
+    bool too_deep = false;
+    for (const std::uint32_t t : part) too_deep |= level_[t] >= options_.max_recursion_depth;
+    if (!left_behind(seed) || too_deep) {
+      refused.insert(comp.begin(), comp.end());
+      if (left_behind(seed)) ++stats.recursion_fallbacks;
+      continue;
+    }
+    // Cut nodes of the promoted part; those the rest shares stay cut nodes there, pinned.
+    std::set<std::uint32_t> ids, kept;
+    for (const std::uint32_t t : part)
       for (const auto& sub : cut_tets_.at(t).subs)
         for (const GNode g : sub)
           if (g & kCutBit) ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
-    }
-    // An earlier cut: the blade has not touched it in this stroke, or not for a while.
-    for (const std::uint32_t t : comp)
-      promotable &=
-          last_touch_[t] + options_.finished_after_steps < step_count_ || last_touch_[t] < stroke_start_;
-    if (!promotable || too_deep) {
-      refused.insert(comp.begin(), comp.end());
-      if (promotable) ++stats.recursion_fallbacks;
-      continue;
-    }
+    for (const std::uint32_t t : rest)
+      for (const auto& sub : cut_tets_.at(t).subs)
+        for (const GNode g : sub)
+          if ((g & kCutBit) && ids.count(static_cast<std::uint32_t>(g & ~kCutBit))) {
+            kept.insert(static_cast<std::uint32_t>(g & ~kCutBit));
+            cut_nodes_[static_cast<size_t>(g & ~kCutBit)].pinned = true;
+          }
+    for (const std::uint32_t t : part) seal(t, rest);
     // The crack faces stay part of the cut surface.
-    for (const CrackFace& f : crack_faces(comp))
+    for (const CrackFace& f : crack_faces(part))
       retired_crack_faces_.push_back(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
-    for (const std::uint32_t t : comp) {
+    for (const std::uint32_t t : part) {
       const CoarseTet c = std::move(cut_tets_.at(t));
       cut_tets_.erase(t);
       const TetId unit = coarse_.tet_handle(t);
@@ -1242,7 +1297,9 @@ bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint
       stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
     }
     for (const std::uint32_t id : ids) {
+      if (kept.count(id)) continue;
       CutNode& n = cut_nodes_[id];
+      for (const NodeId c : n.copies) former_[c.index] = id;
       auto& map = n.kind == CutNode::Kind::Edge  ? edge_nodes_
                   : n.kind == CutNode::Kind::Mid ? mid_nodes_
                                                  : entry_nodes_;
@@ -1251,11 +1308,91 @@ bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint
       if (n.kind == CutNode::Kind::Mid) crossing_faces_.erase(n.key);
       n.crossing = false;
     }
+    // Seals whose unit has been promoted now are lifted.
+    for (auto it = seals_.begin(); it != seals_.end();)
+      it = coarse_tets_around(it->second).empty() ? seals_.erase(it) : std::next(it);
     ++stats.recursions;
-    stats.promoted_tets += comp.size();
+    if (!rest.empty()) ++stats.stroke_recursions;
+    stats.promoted_tets += part.size();
+    refused.insert(rest.begin(), rest.end());
     any = true;
   }
   return any;
+}
+
+// Seals the faces and edges of unit `t` (about to be promoted) that a unit of `rest` holds whole
+// while `t`'s subdivision splits them: those holding cut data. Each of their pieces in `t`'s
+// subdivision is sealed with them.
+void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
+  const CoarseTet& c = cut_tets_.at(t);
+  const auto& v = coarse_.tet_vertex_indices(t);
+  auto in = [](const Key3& outer, std::uint32_t slot) {
+    return slot == kInvalidIndex || std::find(outer.begin(), outer.end(), slot) != outer.end();
+  };
+  // Whether abstract node g lies on the face or edge `outer`.
+  auto lies_on = [&](GNode g, const Key3& outer) {
+    if (!(g & kCutBit)) return in(outer, static_cast<std::uint32_t>(g));
+    const Key3& k = cut_nodes_[static_cast<size_t>(g & ~kCutBit)].key;
+    return in(outer, k[0]) && in(outer, k[1]) && in(outer, k[2]);
+  };
+  auto held_by_rest = [&](const Key3& key) {
+    for (const std::uint32_t u : coarse_tets_around(key))
+      if (std::find(rest.begin(), rest.end(), u) != rest.end()) return true;
+    return false;
+  };
+  auto seal_edges = [&](std::uint32_t a, std::uint32_t b, std::uint32_t d, const Key3& outer) {
+    seals_[edge_key(a, b)] = outer;
+    seals_[edge_key(b, d)] = outer;
+    seals_[edge_key(a, d)] = outer;
+  };
+  for (int f = 0; f < 4; ++f) {
+    const auto fv = face_vertex_indices(coarse_, t, f);
+    const Key3 face = sorted_key(fv[0], fv[1], fv[2]);
+    const bool cut = face_node(mid_nodes_, face) != kInvalidIndex ||
+                     face_node(entry_nodes_, face) != kInvalidIndex || face_has_edge_node(face);
+    if (!cut || !held_by_rest(face)) continue;
+    seals_[face] = face;
+    seal_edges(face[0], face[1], face[2], face);
+    for (std::size_t s = 0; s < c.subs.size(); ++s)
+      for (int j = 0; j < 4; ++j) {
+        const auto g = face_without(c.subs[s], j);
+        if (!lies_on(g[0], face) || !lies_on(g[1], face) || !lies_on(g[2], face)) continue;
+        const auto r = face_without(c.real[s], j);
+        seals_[sorted_key(r[0].index, r[1].index, r[2].index)] = face;
+        seal_edges(r[0].index, r[1].index, r[2].index, face);
+      }
+  }
+  for (const auto& ev : kEdgeVertices) {
+    const Key3 edge = edge_key(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]);
+    if (edge_node(edge[0], edge[1]) == kInvalidIndex || !held_by_rest(edge)) continue;
+    seals_[edge] = edge;
+    for (std::size_t s = 0; s < c.subs.size(); ++s)
+      for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j)
+          if (lies_on(c.subs[s][static_cast<size_t>(i)], edge) &&
+              lies_on(c.subs[s][static_cast<size_t>(j)], edge))
+            seals_[edge_key(c.real[s][static_cast<size_t>(i)].index,
+                            c.real[s][static_cast<size_t>(j)].index)] = edge;
+  }
+}
+
+bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const BladePose& pose) const {
+  // Both ends on the earlier cut surface where it has opened: the edge lies in it (or across a
+  // sliver beside it), and a blade running along that surface would shave off slivers.
+  const auto a = former_.find(e.a), b = former_.find(e.b);
+  if (a == former_.end() || b == former_.end()) return false;
+  const CutNode &na = cut_nodes_[a->second], &nb = cut_nodes_[b->second];
+  if (na.copies.size() < 2 || nb.copies.size() < 2) return false;
+  const auto& x = coarse_.positions();
+  const Vec3 normal = swept_normal(prev, pose, e.s);
+  const double size = (x[e.a] - x[e.b]).norm();
+  return (na.sheet_normal.squaredNorm() > 0 && same_cut(x[e.a], na.sheet_normal, e.point, normal, size)) ||
+         (nb.sheet_normal.squaredNorm() > 0 && same_cut(x[e.b], nb.sheet_normal, e.point, normal, size));
+}
+
+bool CutEngine::sealed(const Key3& key) const {
+  const auto it = seals_.find(key);
+  return it != seals_.end() && !coarse_tets_around(it->second).empty();
 }
 
 std::string CutEngine::check_faithful(double tolerance) const {

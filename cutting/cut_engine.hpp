@@ -26,17 +26,18 @@
 // the node.
 //
 // Recursive continuation (§6): the units are a mesh of their own (`coarse()`), which starts as the
-// original mesh and can go deeper. When a stroke reaches an earlier cut with an event the basic
-// machine cannot represent there (a new cut in a unit whose subdivision is final, a second crossing
-// of a cut edge or face by another surface), the earlier cut's component (its cut units and all
-// units sharing its cut nodes) is promoted: its live sub-tetrahedra become units one level deeper,
-// its cut nodes their corners (the interconnection nodes), its crack a boundary between them, and
-// collision runs again on them before the step goes on. The live mesh does not change, so the
-// tissue model sees nothing. Promoting a whole component keeps the unit mesh conforming with no
-// frozen edge or face data: no unit outside it refers to its cut nodes. The recursion ends: each
-// pass promotes other components one level deeper, up to CutOptions::max_recursion_depth, beyond
-// which the one-level subdivision is kept (valid, not exact). Within a stroke a re-crossing of the
-// stroke's own cut is tremble or a reversal (§5), handled by the basic machine.
+// original mesh and can go deeper. When a stroke reaches a cut it has left behind with an event the
+// basic machine cannot represent there (a new surface in a unit whose subdivision is final, a
+// second crossing of a cut edge or face by another surface), that cut's component (its cut units
+// and all units sharing its cut nodes) is promoted: its live sub-tetrahedra become units one level
+// deeper, its cut nodes their corners (the interconnection nodes), its crack a boundary between
+// them, and collision runs again on them before the step goes on. The live mesh does not change,
+// so the tissue model sees nothing. A component the stroke is still cutting is promoted only where
+// the blade has left it; the cut nodes it shares with the rest are pinned and the faces and edges
+// between the two parts sealed, which keeps the live mesh conforming (see promote()). The recursion
+// ends: each pass promotes other units one level deeper, up to CutOptions::max_recursion_depth,
+// beyond which the one-level subdivision is kept (valid, not exact). Around the blade a re-crossing
+// of the stroke's own cut is tremble or a reversal (§5), handled by the basic machine.
 #pragma once
 
 #include <array>
@@ -63,7 +64,7 @@ struct CutOptions {
   // of DESIGN section 5; the remaining slivers are the tissue model's to condition (DESIGN section 6).
   double min_edge_param = 1e-6;
   double min_face_bary = 1e-6;
-  // Recursive continuation (§6). A cut event in a tetrahedron whose subdivision is final, or a second
+  // Recursive continuation (§6). A new surface in a tetrahedron whose subdivision is final, or a second
   // crossing of a cut edge or face by a different surface, continues the cut on the sub-tetrahedra:
   // they become units of their own, one level deeper. Beyond this depth the one-level subdivision
   // is kept (the fallback), which leaves a valid mesh but cannot follow the second surface exactly.
@@ -74,10 +75,10 @@ struct CutOptions {
   // surface's tangent plane. Below that the mesh cannot resolve two surfaces anyway.
   double same_cut_angle_deg = 30.0;
   double same_cut_distance = 0.5;
-  // A cut is an earlier one, which a stroke reaching it continues recursively, once the blade has
-  // not touched it for this many steps, or since place(). Within that time a tremor or a pull-back
-  // that leaves and re-enters the cut is the same stroke (1 kHz tool samples: a quarter second, two
-  // periods of a 9 Hz tremor).
+  // A cut tetrahedron is left behind, and a stroke reaching it again continues it recursively, once
+  // the blade has not touched it for this many steps, or since place(). Within that time a tremor or
+  // a pull-back that leaves and re-enters the cut is the basic machine's (§5) (1 kHz tool samples: a
+  // quarter second, two periods of a 9 Hz tremor).
   std::uint64_t finished_after_steps = 250;
   // The state machine's table; null: the bundled config/cutting/state_machine.cut.
   const CutTable* table = nullptr;
@@ -113,6 +114,8 @@ struct CutStepStats {
   std::size_t recursions = 0;           // cut components whose sub-tetrahedra became units (§6)
   std::size_t promoted_tets = 0;        // units replaced by their sub-tetrahedra
   std::size_t recursion_fallbacks = 0;  // components at the depth bound that kept their subdivision
+  std::size_t stroke_recursions = 0;    // of `recursions`: the part the stroke has left, within a stroke
+  std::size_t sealed_events = 0;        // crossings of a sealed face or edge, ignored (§6 fallback)
   int recursion_depth = 0;              // deepest level of the units created this step
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
@@ -125,7 +128,8 @@ struct CutTotals {
   std::size_t steps = 0;
   std::size_t edges_cut = 0, backward_crossings = 0, replaced_crossings = 0, recrossed_edges = 0,
               recrossed_faces = 0, face_pierces = 0, undone_faces = 0;
-  std::size_t recursions = 0, promoted_tets = 0, recursion_fallbacks = 0;
+  std::size_t recursions = 0, promoted_tets = 0, recursion_fallbacks = 0, stroke_recursions = 0,
+              sealed_events = 0;
   int max_recursion_depth = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
@@ -239,6 +243,15 @@ class CutEngine {
   bool promote(const std::set<std::uint32_t>& units, std::set<std::uint32_t>& refused, CutStepStats& stats);
   // The unit node mirroring live node `live` (same slot), created on first use.
   NodeId unit_node(NodeId live);
+  // Whether a face or edge (key {a, b, kInvalidIndex}) is sealed: it lies on the boundary between
+  // units promoted within a stroke and the units of the stroke's recent part, which still hold it
+  // whole. Crossings there are ignored until those units are promoted too.
+  bool sealed(const std::array<std::uint32_t, 3>& key) const;
+  void seal(std::uint32_t unit, const std::vector<std::uint32_t>& rest);
+  // Whether an edge crossing runs along the opened cut surface at a promoted cut node at one of
+  // the edge's ends (the same surface, by same_cut()): a blade retracing a cut continued one level
+  // deeper, which must not cut beside it.
+  bool along_former_cut(const EdgeCut& e, const BladePose& prev, const BladePose& pose) const;
   bool same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
                 double size) const;
   Vec3 face_sheet_normal(const std::array<std::uint32_t, 3>& key) const;
@@ -269,6 +282,12 @@ class CutEngine {
   // Crack faces of promoted components (one side's real nodes), for the cut-surface area.
   std::vector<std::array<NodeId, 3>> retired_crack_faces_;
   std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed
+  // Sealed faces and edges (sorted node slots; an edge has kInvalidIndex third), each with the
+  // face or edge of a not yet promoted unit whose subdivision holds it: the seal lasts while a unit
+  // holds that face or edge whole.
+  std::map<std::array<std::uint32_t, 3>, std::array<std::uint32_t, 3>> seals_;
+  // Promoted cut nodes, now corners of units, by node slot of each copy: the cut node.
+  std::unordered_map<std::uint32_t, std::uint32_t> former_;
   CutChanges changes_;
   // Scratch buffers of regroup(), kept to avoid allocating on every step.
   struct RegroupItem {

@@ -230,6 +230,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                        {"face_pierces", totals.face_pierces},
                        {"undone_face_subdivisions", totals.undone_faces},
                        {"recursive_continuations", totals.recursions},
+                       {"recursive_continuations_within_stroke", totals.stroke_recursions},
+                       {"sealed_crossings", totals.sealed_events},
                        {"tetrahedra_promoted", totals.promoted_tets},
                        {"max_recursion_depth", totals.max_recursion_depth},
                        {"recursion_fallbacks", totals.recursion_fallbacks},

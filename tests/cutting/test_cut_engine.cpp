@@ -368,35 +368,92 @@ TEST_CASE("one stroke that closes on itself excises what it encloses, a figure o
   // Through-cuts by a vertical blade in one stroke, without lifting out: a circle run 0.3 rad past
   // its start, and a figure of eight (x, y) = (0.35 sin a, 0.25 sin 2a) that crosses its own cut at
   // the centre. Each lobe of the eight encloses 4/3 * 0.35 * 0.25 of the unit-square section; on
-  // a 12-cell box the pieces come within 3 % of the enclosed areas (the mesh's chords).
+  // a 12-cell box the pieces come within 3 % of the enclosed areas (the mesh's chords). In 400
+  // samples the blade is back at the centre while the tetrahedra there are still the basic
+  // machine's (tremble, §5); in 1000 it has left them behind and the second crossing continues the
+  // first one level deeper (§6). The circle closes onto its own start along the same surface: the
+  // basic machine extends the cut there, at any speed.
   const double lobe = 4.0 / 3.0 * 0.35 * 0.25, disc = 3.14159265358979 * 0.09;
-  for (const bool eight : {false, true}) {
-    CAPTURE(eight);
-    TetMesh mesh = make_box({.cells = {12, 12, 3}, .split = CubeSplit::Six});
-    CutEngine cutter(mesh);
-    auto blade = [&](double a) {
-      const Vec3 p = eight ? Vec3(0.5 + 0.35 * std::sin(a), 0.5 + 0.25 * std::sin(2 * a), 0)
-                           : Vec3(0.5 + 0.3 * std::cos(a), 0.5 + 0.3 * std::sin(a), 0);
-      return BladePose{Vec3(p.x(), p.y(), 1.5), Vec3(p.x(), p.y(), -0.5), Vec3::Zero()};
-    };
-    const double end = eight ? 2 * 3.14159265358979 : 2 * 3.14159265358979 + 0.3;
-    cutter.place(blade(0));
-    for (int k = 1; k <= 400; ++k) {
-      cutter.step(blade(end * k / 400));
-      require_valid(mesh, 1.0);
+  for (const bool eight : {false, true})
+    for (const int samples : {400, 1000}) {
+      CAPTURE(eight);
+      CAPTURE(samples);
+      TetMesh mesh = make_box({.cells = {12, 12, 3}, .split = CubeSplit::Six});
+      CutEngine cutter(mesh);
+      auto blade = [&](double a) {
+        const Vec3 p = eight ? Vec3(0.5 + 0.35 * std::sin(a), 0.5 + 0.25 * std::sin(2 * a), 0)
+                             : Vec3(0.5 + 0.3 * std::cos(a), 0.5 + 0.3 * std::sin(a), 0);
+        return BladePose{Vec3(p.x(), p.y(), 1.5), Vec3(p.x(), p.y(), -0.5), Vec3::Zero()};
+      };
+      const double end = eight ? 2 * 3.14159265358979 : 2 * 3.14159265358979 + 0.3;
+      cutter.place(blade(0));
+      for (int k = 1; k <= samples; ++k) {
+        cutter.step(blade(end * k / samples));
+        require_valid(mesh, 1.0);
+      }
+      const auto comps = connected_components(mesh);
+      std::vector<double> v = comps.rest_volume;
+      std::sort(v.begin(), v.end());
+      REQUIRE(v.size() == (eight ? 3u : 2u));
+      if (eight) {
+        CHECK(std::abs(v[0] - lobe) < 0.03 * lobe);
+        CHECK(std::abs(v[1] - lobe) < 0.03 * lobe);
+        CHECK(cutter.totals().stroke_recursions == (samples == 1000 ? 1u : 0u));
+      } else {
+        CHECK(std::abs(v[0] - disc) < 0.03 * disc);
+        CHECK(cutter.totals().recursions == 0);
+      }
+      CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
     }
-    const auto comps = connected_components(mesh);
-    std::vector<double> v = comps.rest_volume;
-    std::sort(v.begin(), v.end());
-    REQUIRE(v.size() == (eight ? 3u : 2u));
-    if (eight) {
-      CHECK(std::abs(v[0] - lobe) < 0.03 * lobe);
-      CHECK(std::abs(v[1] - lobe) < 0.03 * lobe);
-    } else {
-      CHECK(std::abs(v[0] - disc) < 0.03 * disc);
+}
+
+TEST_CASE("one stroke that crosses its own incision where the blade has left it continues it there") {
+  // A vertical blade in one stroke, never lifted: up x = 0.37, right along y = 0.8, down x = 0.8,
+  // then left along y = 0.4151 across the first leg and out. The first leg was cut some 900
+  // samples before the blade returns to it: that part of the stroke is continued one level deeper
+  // (section 6), while the tetrahedra around the blade keep the basic machine. The piece the first
+  // and last legs sever, x < 0.37 and y < 0.4151, has straight sides only and is exact; the square
+  // the loop excises has three turns inside tetrahedra, which the one-level subdivision rounds.
+  const std::vector<Vec3> path{Vec3(0.37, -0.5, 0), Vec3(0.37, 0.8, 0), Vec3(0.8, 0.8, 0),
+                               Vec3(0.8, 0.4151, 0), Vec3(-0.5, 0.4151, 0)};
+  const double corner = 0.37 * 0.4151, square = 0.43 * 0.3849;
+  for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five})
+    for (const bool recursive : {true, false}) {
+      CAPTURE(static_cast<int>(split));
+      CAPTURE(recursive);
+      TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
+      CutOptions options;
+      if (!recursive) options.finished_after_steps = 1u << 30;  // the stroke's cut is never left behind
+      CutEngine cutter(mesh, options);
+      cutter.place(vertical_blade(path[0].x(), path[0].y()));
+      for (std::size_t leg = 1; leg < path.size(); ++leg) {
+        const int n = static_cast<int>(std::ceil((path[leg] - path[leg - 1]).norm() / 0.002));
+        for (int k = 1; k <= n; ++k) {
+          const Vec3 p = path[leg - 1] + (path[leg] - path[leg - 1]) * k / n;
+          cutter.step(vertical_blade(p.x(), p.y()));
+          require_valid(mesh, 1.0);
+        }
+      }
+      REQUIRE_MESSAGE(cutter.check_faithful(1e-12).empty(), cutter.check_faithful(1e-12));
+      const auto comps = connected_components(mesh);
+      REQUIRE(comps.count() == 3);
+      std::vector<double> v = comps.rest_volume;
+      std::sort(v.begin(), v.end());
+      CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
+      CHECK(std::abs(v[1] - square) < 0.03 * square);
+      const CutTotals& t = cutter.totals();
+      const char* how = recursive ? "continued" : "basic machine only";
+      MESSAGE(std::string(how) << ": corner piece off by " << (v[0] - corner) / corner << ", "
+                               << t.stroke_recursions << " continuations within the stroke");
+      if (recursive) {
+        CHECK(t.stroke_recursions == 1);
+        CHECK(t.recursion_fallbacks == 0);
+        CHECK(std::abs(v[0] - corner) < 1e-9 * corner);
+      } else {
+        CHECK(t.recursions == 0);
+        CHECK(std::abs(v[0] - corner) > 1e-3 * corner);  // the second surface only approximated
+      }
     }
-    CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
-  }
 }
 
 TEST_CASE("a third cut goes two levels deep; at the depth bound it falls back and the mesh stays valid") {
