@@ -736,7 +736,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   // level deeper in the components it promotes; the depth bound ends the loop.
   std::set<std::uint32_t> refused;
   for (int pass = 0; pass <= options_.max_recursion_depth; ++pass) {
-    const std::set<std::uint32_t> units = recursive_units(prev, pose);
+    const std::map<std::uint32_t, bool> units = recursive_units(prev, pose);
     if (units.empty() || !promote(units, refused, stats)) break;
     sweep_->sweep(prev, pose, sweep_result_);
   }
@@ -1126,8 +1126,8 @@ Vec3 CutEngine::face_sheet_normal(const Key3& k) const {
   return Vec3::Zero();
 }
 
-std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const BladePose& pose) const {
-  std::set<std::uint32_t> out;
+std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, const BladePose& pose) const {
+  std::map<std::uint32_t, bool> out;
   const auto& x = coarse_.positions();
   auto point_of = [&](const CutNode& n) {
     Vec3 p = Vec3::Zero();
@@ -1154,7 +1154,8 @@ std::set<std::uint32_t> CutEngine::recursive_units(const BladePose& prev, const 
     for (const std::uint32_t t : coarse_tets_around(key)) {
       const auto it = cut_tets_.find(t);
       if (it == cut_tets_.end()) continue;
-      if (!only_complete || (it->second.complete && !extends(it->second, point, normal, size))) out.insert(t);
+      if (!only_complete || (it->second.complete && !extends(it->second, point, normal, size)))
+        out[t] |= !only_complete;
     }
   };
   const Vec3 blade = pose.tip - pose.back;
@@ -1235,14 +1236,26 @@ NodeId CutEngine::unit_node(NodeId live) {
 // faces and edges between them sealed (a crossing there is ignored) until the rest is promoted too.
 // A component at the depth bound keeps its one-level subdivision: the fallback, which stays valid
 // but cannot follow a second surface exactly.
-bool CutEngine::promote(const std::set<std::uint32_t>& units, std::set<std::uint32_t>& refused,
+bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std::uint32_t>& refused,
                         CutStepStats& stats) {
   bool any = false;
   auto left_behind = [&](std::uint32_t t) {
     return last_touch_[t] + options_.finished_after_steps < step_count_ || last_touch_[t] < stroke_start_;
   };
-  for (const std::uint32_t seed : units) {
-    if (refused.count(seed) || !cut_tets_.count(seed)) continue;
+  // A unit where the cut ends (a cut node in it has not opened): promoted, those nodes could not
+  // open any more, and a new cut that starts there (Fig. 12) would stay joined to the old one. The
+  // basic machine continues such a unit, unless the new cut crosses the old one there or another
+  // unit of its component is promoted.
+  auto at_boundary = [&](std::uint32_t t) {
+    for (const auto& sub : cut_tets_.at(t).subs)
+      for (const GNode g : sub) {
+        const auto id = static_cast<std::uint32_t>(g & ~kCutBit);
+        if ((g & kCutBit) && opens(id) && cut_nodes_[id].copies.size() < 2) return true;
+      }
+    return false;
+  };
+  for (const auto& [seed, crosses] : units) {
+    if (refused.count(seed) || !cut_tets_.count(seed) || (!crosses && at_boundary(seed))) continue;
     const std::vector<std::uint32_t> comp = cut_component(seed);
     std::vector<std::uint32_t> part, rest;
     for (const std::uint32_t t : comp) (left_behind(t) ? part : rest).push_back(t);

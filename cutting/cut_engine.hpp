@@ -233,14 +233,15 @@ class CutEngine {
   std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
 
   // Recursive continuation (§6). The cut units that the sweep in `sweep_result_` reaches with an
-  // event the basic machine cannot represent: a new cut in a unit whose subdivision is final, or
-  // a second crossing of a cut edge or face by another surface.
-  std::set<std::uint32_t> recursive_units(const BladePose& prev, const BladePose& pose) const;
+  // event the basic machine cannot represent: a new surface in a unit whose subdivision is final,
+  // or (true) a second crossing of a cut edge or face by another surface.
+  std::map<std::uint32_t, bool> recursive_units(const BladePose& prev, const BladePose& pose) const;
   // The cut units that share cut nodes with `t`, transitively: what must change level together.
   std::vector<std::uint32_t> cut_component(std::uint32_t t) const;
   // Makes the sub-tetrahedra of every promotable component of `units` units of their own;
   // returns whether any was. Components that cannot be promoted join `refused` (counted once).
-  bool promote(const std::set<std::uint32_t>& units, std::set<std::uint32_t>& refused, CutStepStats& stats);
+  bool promote(const std::map<std::uint32_t, bool>& units, std::set<std::uint32_t>& refused,
+               CutStepStats& stats);
   // The unit node mirroring live node `live` (same slot), created on first use.
   NodeId unit_node(NodeId live);
   // Whether a face or edge (key {a, b, kInvalidIndex}) is sealed: it lies on the boundary between

@@ -456,6 +456,31 @@ TEST_CASE("one stroke that crosses its own incision where the blade has left it 
     }
 }
 
+TEST_CASE("a cut that starts where an earlier one ends frees the flap between them (Fig. 12)") {
+  // An incision along y at x = 0.37 up to y = 0.6, pulled back out along its path; then a new one
+  // from its end along x to the far side: an L that frees the corner x > 0.37, y < 0.6. The new
+  // cut starts in the tetrahedra where the first ends, whose cut nodes there have not opened: the
+  // basic machine continues them, so the flap comes free, as close to 0.63 x 0.6 as the one-level
+  // subdivision resolves the corner inside a tetrahedron.
+  for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five}) {
+    CAPTURE(static_cast<int>(split));
+    TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
+    CutEngine cutter(mesh);
+    cutter.place(vertical_blade(0.37, -0.5));
+    for (int k = 1; k <= 110; ++k) cutter.step(vertical_blade(0.37, -0.5 + 0.01 * k));
+    for (int k = 109; k >= 0; --k) cutter.step(vertical_blade(0.37, -0.5 + 0.01 * k));
+    cutter.place(vertical_blade(0.37, 0.6));
+    for (int k = 1; k <= 120; ++k) {
+      cutter.step(vertical_blade(0.37 + 0.01 * k, 0.6));
+      require_valid(mesh, 1.0);
+    }
+    const auto comps = connected_components(mesh);
+    REQUIRE(comps.count() == 2);
+    const double flap = *std::min_element(comps.rest_volume.begin(), comps.rest_volume.end());
+    CHECK(std::abs(flap - 0.63 * 0.6) < 0.02 * 0.63 * 0.6);
+  }
+}
+
 TEST_CASE("a third cut goes two levels deep; at the depth bound it falls back and the mesh stays valid") {
   // x = 0.37 and x = 0.3913 along y, y = 0.4151 along x: the third cut runs through the tetrahedra
   // of the first, which the second cut promoted and cut again.
