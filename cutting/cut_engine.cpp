@@ -794,13 +794,15 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   std::stable_sort(edges.begin(), edges.end(),
                    [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
   std::vector<Key3> new_edges;
-  std::set<Key3> sealed_now;  // sealed faces and edges the blade crossed, counted once
+  std::set<Key3> sealed_now;               // sealed faces and edges the blade crossed, counted once
+  auto skip_sealed = [&](const Key3& k) {  // a crossing of a sealed face or edge is ignored (§6)
+    if (!sealed(k)) return false;
+    sealed_now.insert(k);
+    return true;
+  };
   for (const EdgeCut* e : edges) {
     const Key3 k = edge_key(e->a, e->b);
-    if (sealed(k)) {
-      sealed_now.insert(k);
-      continue;
-    }
+    if (skip_sealed(k)) continue;
     if (along_former_cut(*e, prev, pose)) {
       ++stats.recrossed_edges;
       continue;
@@ -849,10 +851,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   }
   std::set<Key3> tip_left;
   for (const auto& [k, pierce] : pierced) {
-    if (sealed(k)) {
-      sealed_now.insert(k);
-      continue;
-    }
+    if (skip_sealed(k)) continue;
     const auto [into, point] = pierce;
     const auto known = entry_nodes_.find(k);
     if (known != entry_nodes_.end()) {
@@ -879,10 +878,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   std::set<Key3> crossing_now;
   for (const auto& c : sweep_result_.crossings) {
     const Key3 k = sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]);
-    if (sealed(k)) {
-      sealed_now.insert(k);
-      continue;
-    }
+    if (skip_sealed(k)) continue;
     if (!crossing_now.insert(k).second) continue;
     const Vec3 sample = face_bary(k, c.point);
     const Vec3 w = clamp_interior(sample, options_.min_face_bary);
