@@ -40,6 +40,15 @@ struct CutEngine::CoarseTet {
   CutTopology topology;  // in local labels
   CanonicalState state;  // the state (§4.2): canonical topology and absolute transformation
   bool complete = false;
+  // Calls f(cut node index) for each cut-node corner of the sub-tetrahedra (a node once per
+  // corner) until f returns true; returns whether it did.
+  template <class F>
+  bool any_cut_node(F&& f) const {
+    for (const auto& sub : subs)
+      for (const GNode g : sub)
+        if ((g & kCutBit) && f(static_cast<std::uint32_t>(g & ~kCutBit))) return true;
+    return false;
+  }
 };
 
 void CutTotals::add(const CutStepStats& s) {
@@ -1167,14 +1176,10 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   // Whether a new cut at `point` in unit `c` extends the surface already cut there (the blade
   // returning to a cut it left, along it: the basic machine goes on) rather than starting another.
   auto extends = [&](const CoarseTet& c, const Vec3& point, const Vec3& normal, double size) {
-    for (const auto& sub : c.subs)
-      for (const GNode g : sub) {
-        if (!(g & kCutBit)) continue;
-        const CutNode& n = cut_nodes_[static_cast<size_t>(g & ~kCutBit)];
-        if (n.kind != CutNode::Kind::Entry && same_cut(point_of(n), n.sheet_normal, point, normal, size))
-          return true;
-      }
-    return false;
+    return c.any_cut_node([&](std::uint32_t id) {
+      const CutNode& n = cut_nodes_[id];
+      return n.kind != CutNode::Kind::Entry && same_cut(point_of(n), n.sheet_normal, point, normal, size);
+    });
   };
   // Every cut unit around `key`; or, for a new cut there, those whose subdivision is final and that
   // it does not extend.
@@ -1235,12 +1240,12 @@ std::vector<std::uint32_t> CutEngine::cut_component(std::uint32_t t) const {
   std::vector<std::uint32_t> out{t};
   std::set<std::uint32_t> seen{t}, nodes_seen;
   for (std::size_t i = 0; i < out.size(); ++i)
-    for (const auto& sub : cut_tets_.at(out[i]).subs)
-      for (const GNode g : sub) {
-        if (!(g & kCutBit) || !nodes_seen.insert(static_cast<std::uint32_t>(g & ~kCutBit)).second) continue;
-        for (const std::uint32_t u : coarse_tets_around(cut_nodes_[static_cast<size_t>(g & ~kCutBit)].key))
+    cut_tets_.at(out[i]).any_cut_node([&](std::uint32_t id) {
+      if (nodes_seen.insert(id).second)
+        for (const std::uint32_t u : coarse_tets_around(cut_nodes_[id].key))
           if (cut_tets_.count(u) && seen.insert(u).second) out.push_back(u);
-      }
+      return false;
+    });
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -1276,12 +1281,8 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
   // basic machine continues such a unit, unless the new cut crosses the old one there or another
   // unit of its component is promoted.
   auto at_boundary = [&](std::uint32_t t) {
-    for (const auto& sub : cut_tets_.at(t).subs)
-      for (const GNode g : sub) {
-        const auto id = static_cast<std::uint32_t>(g & ~kCutBit);
-        if ((g & kCutBit) && opens(id) && cut_nodes_[id].copies.size() < 2) return true;
-      }
-    return false;
+    return cut_tets_.at(t).any_cut_node(
+        [&](std::uint32_t id) { return opens(id) && cut_nodes_[id].copies.size() < 2; });
   };
   for (const auto& [seed, crosses] : units) {
     if (refused.count(seed) || !cut_tets_.count(seed) || (!crosses && at_boundary(seed))) continue;
@@ -1298,16 +1299,18 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
     // Cut nodes of the promoted part; those the rest shares stay cut nodes there, pinned.
     std::set<std::uint32_t> ids, kept;
     for (const std::uint32_t t : part)
-      for (const auto& sub : cut_tets_.at(t).subs)
-        for (const GNode g : sub)
-          if (g & kCutBit) ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
+      cut_tets_.at(t).any_cut_node([&](std::uint32_t id) {
+        ids.insert(id);
+        return false;
+      });
     for (const std::uint32_t t : rest)
-      for (const auto& sub : cut_tets_.at(t).subs)
-        for (const GNode g : sub)
-          if ((g & kCutBit) && ids.count(static_cast<std::uint32_t>(g & ~kCutBit))) {
-            kept.insert(static_cast<std::uint32_t>(g & ~kCutBit));
-            cut_nodes_[static_cast<size_t>(g & ~kCutBit)].pinned = true;
-          }
+      cut_tets_.at(t).any_cut_node([&](std::uint32_t id) {
+        if (ids.count(id)) {
+          kept.insert(id);
+          cut_nodes_[id].pinned = true;
+        }
+        return false;
+      });
     for (const std::uint32_t t : part) seal(t, rest);
     // The crack faces stay part of the cut surface.
     for (const CrackFace& f : crack_faces(part))
