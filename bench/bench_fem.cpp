@@ -34,7 +34,8 @@ struct Scene {
 
 // A 4 cm x 4 cm slab, 1 cm deep, cells x cells x 6 cubes of 6 tetrahedra.
 std::unique_ptr<Scene> make_scene(int cells, TissueKind kind, double tolerance, int settle_steps,
-                                  Preconditioner pre = Preconditioner::TwoLevel) {
+                                  Preconditioner pre = Preconditioner::TwoLevel,
+                                  TwoLevelOptions two_level = {}) {
   auto s = std::make_unique<Scene>();
   s->mesh = make_slab({.size_x = 0.04,
                        .size_y = 0.04,
@@ -45,9 +46,12 @@ std::unique_ptr<Scene> make_scene(int cells, TissueKind kind, double tolerance, 
   mats[1].young = 50e3;
   mats[2].young = 10e3;
   for (Material& m : mats) m.prestress = 1.1;
-  s->model = std::make_unique<TissueModel>(
-      s->mesh, mats,
-      TissueSettings{.kind = kind, .tolerance = tolerance, .max_iterations = 200, .preconditioner = pre});
+  s->model = std::make_unique<TissueModel>(s->mesh, mats,
+                                           TissueSettings{.kind = kind,
+                                                          .tolerance = tolerance,
+                                                          .max_iterations = 200,
+                                                          .preconditioner = pre,
+                                                          .two_level = two_level});
   for (const NodeId n : s->mesh.nodes()) {
     const Vec3& x = s->mesh.rest(n);
     if (std::abs(std::abs(x.x()) - 0.02) < 1e-12 || std::abs(std::abs(x.y()) - 0.02) < 1e-12 ||
@@ -127,13 +131,18 @@ void BM_TissueStep(benchmark::State& state) {
 // The step right after an incision against the mean step before it (manual time = the first step
 // after the cut, which includes the topology update). Also reported: the mean of the next four
 // steps (the wound keeps settling), the CG iterations of both, how many of them used the two-level
-// cycle, and the relative residual of the warm start right after the cut.
+// cycle, and the relative residual of the warm start right after the cut. Third argument: the
+// preconditioner, 0 = the two-level cycle, 1 = block-Jacobi, 2 = the cycle with a degree-4
+// Chebyshev smoother, 3 = the cycle with the smoothed prolongator (fem/two_level.hpp).
 void BM_TissueStepAfterCut(benchmark::State& state) {
   using clock = std::chrono::steady_clock;
-  const Preconditioner pre = state.range(2) == 0 ? Preconditioner::TwoLevel : Preconditioner::BlockJacobi;
+  const Preconditioner pre = state.range(2) == 1 ? Preconditioner::BlockJacobi : Preconditioner::TwoLevel;
+  TwoLevelOptions two_level;
+  if (state.range(2) == 2) two_level.smoothing_degree = 4;
+  if (state.range(2) == 3) two_level.prolongator_weight = 4.0 / 3.0;
   for (auto _ : state) {
     state.PauseTiming();
-    auto s = make_scene(static_cast<int>(state.range(0)), kind_of(state), 1e-3, 120, pre);
+    auto s = make_scene(static_cast<int>(state.range(0)), kind_of(state), 1e-3, 120, pre, two_level);
     double before = 0, cg_before = 0;
     const int n = 20;
     for (int k = 0; k < n; ++k) {
@@ -269,10 +278,12 @@ tool:
 }
 
 // cells per side: 12 -> 5184, 24 -> 20736, 37 -> 49284 tetrahedra; second argument 0 = FEM,
-// 1 = mass-spring; third (after a cut) 0 = two-level preconditioner, 1 = block-Jacobi.
+// 1 = mass-spring; third (after a cut) the preconditioner, as above.
 BENCHMARK(BM_TissueStep)->ArgsProduct({{12, 24, 37}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_TissueStepAfterCut)
     ->ArgsProduct({{12, 24, 37}, {0, 1}, {0, 1}})
+    ->Args({24, 0, 2})
+    ->Args({24, 0, 3})
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->Iterations(1)
