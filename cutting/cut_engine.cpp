@@ -566,33 +566,37 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   // A pinned node's copies are shared with promoted units across sealed faces: a group with a face
   // there keeps the copy the promoted side has, whatever the votes.
   if (n.pinned && n.copies.size() > 1) {
+    // The copy used by the first sealed real face over abstract face `face` (which holds g), if any.
+    auto sealed_copy = [&](const std::array<GNode, 3>& face) {
+      std::array<std::vector<std::uint32_t>, 3> real;  // candidate real node slots per vertex
+      for (std::size_t j = 0; j < 3; ++j) {
+        if (!(face[j] & kCutBit)) {
+          real[j] = {static_cast<std::uint32_t>(face[j])};
+          continue;
+        }
+        for (const NodeId c : cut_nodes_[static_cast<size_t>(face[j] & ~kCutBit)].copies)
+          real[j].push_back(c.index);
+      }
+      const int at = face[0] == g ? 0 : face[1] == g ? 1 : 2;
+      for (const std::uint32_t x : real[0])
+        for (const std::uint32_t y : real[1])
+          for (const std::uint32_t z : real[2]) {
+            if (!seals_.count(sorted_key(x, y, z))) continue;
+            const std::uint32_t mine = at == 0 ? x : at == 1 ? y : z;
+            for (std::uint32_t k = 0; k < n.copies.size(); ++k)
+              if (n.copies[k].index == mine) return k;
+          }
+      return kInvalidIndex;
+    };
     for (std::uint32_t i = 0; i < items.size(); ++i) {
+      const std::uint32_t group = group_of_root[find(i)];
       const auto& tet = *items[i].tet;
       for (int f = 0; f < 4; ++f) {
-        if (tet[static_cast<size_t>(f)] == g) continue;
-        const auto face = face_without(tet, f);
-        std::array<std::vector<std::uint32_t>, 3> real;  // candidate real node slots per vertex
-        for (int j = 0; j < 3; ++j) {
-          const GNode v = face[static_cast<size_t>(j)];
-          if (!(v & kCutBit)) {
-            real[static_cast<size_t>(j)] = {static_cast<std::uint32_t>(v)};
-            continue;
-          }
-          for (const NodeId c : cut_nodes_[static_cast<size_t>(v & ~kCutBit)].copies)
-            real[static_cast<size_t>(j)].push_back(c.index);
-        }
-        const int at = face[0] == g ? 0 : face[1] == g ? 1 : 2;
-        for (const std::uint32_t x : real[0])
-          for (const std::uint32_t y : real[1])
-            for (const std::uint32_t z : real[2]) {
-              if (!seals_.count(sorted_key(x, y, z))) continue;
-              const std::uint32_t mine = at == 0 ? x : at == 1 ? y : z;
-              for (std::uint32_t k = 0; k < n.copies.size(); ++k)
-                if (n.copies[k].index == mine && copy_of[group_of_root[find(i)]] == kInvalidIndex) {
-                  copy_of[group_of_root[find(i)]] = k;
-                  taken[k] = 1;
-                }
-            }
+        if (tet[static_cast<size_t>(f)] == g || copy_of[group] != kInvalidIndex) continue;
+        const std::uint32_t k = sealed_copy(face_without(tet, f));
+        if (k == kInvalidIndex) continue;
+        copy_of[group] = k;
+        taken[k] = 1;
       }
     }
   }

@@ -24,8 +24,7 @@
 // the aggregates of its neighbours: P, Ac and its factor are two to three times larger. The default
 // keeps P = T: on the skin slab of bench/bench_fem.cpp a 12 mm incision made at once then needs 17
 // iterations instead of 18 (bench_fem AfterCut/24/0/3), and a rebuild costs about 1.5 times as
-// much. The coarse operator is
-// the Galerkin product
+// much. The coarse operator is the Galerkin product
 //   Ac = P^T A P  (6 x 6 blocks, one block row per aggregate),
 // factorised by a sparse LDL^T (Eigen SimplicialLDLT, AMD ordering).
 //
