@@ -52,7 +52,7 @@ struct TissueSection {
   double rate = 60.0;                    // [Hz] tissue steps per second, time step 1 / rate
   double cg_tolerance = 1e-6;            // [-] CG stops at |r| <= tolerance * |b|
   int cg_max_iterations = 200;           // CG iterations per step
-  int local_rings = 4;                   // rings around a cut solved first (TissueSettings), 0: off
+  int local_rings = 6;                   // rings around a cut solved first (TissueSettings), 0: off
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
   bool volume_springs = false;           // mass_spring only: add volume-preserving springs
 };

@@ -466,6 +466,31 @@ TEST_CASE("after a cut the solve starts at the cut: the same motion in fewer cyc
   CHECK(gap < 1e-12);
 }
 
+TEST_CASE("the region solved first after a cut grows by rings up to local_fraction of the free nodes") {
+  const auto run = [](double fraction, std::size_t& free_nodes) {
+    TetMesh m = skin_fat_slab(16);
+    const std::vector<Material> mats = prestressed(2, 1.1);
+    TissueModel model(m, mats, {.tolerance = 1e-3, .local_rings = 64, .local_fraction = fraction});
+    fix_nodes(m, model, [](const Vec3& x) { return std::abs(x.z() + 0.006) < 1e-12; });
+    for (int k = 0; k < 60; ++k) model.step(1.0 / 60);
+    make_incision(m, model, 0.001, 0.002);
+    const StepStats after = model.step(1.0 / 60);
+    CHECK(after.status == StepStatus::Converged);
+    free_nodes = 0;
+    for (const NodeId n : m.nodes()) free_nodes += model.fixed(n) ? 0 : 1;
+    return after;
+  };
+  std::size_t free_narrow = 0, free_wide = 0;
+  const StepStats narrow = run(0.1, free_narrow), wide = run(0.3, free_wide);
+  CAPTURE(narrow.local_nodes);
+  CAPTURE(wide.local_nodes);
+  CAPTURE(free_wide);
+  CHECK(narrow.local_nodes > 0);
+  CHECK(static_cast<double>(narrow.local_nodes) <= 0.1 * static_cast<double>(free_narrow));
+  CHECK(static_cast<double>(wide.local_nodes) <= 0.3 * static_cast<double>(free_wide));
+  CHECK(wide.local_nodes > narrow.local_nodes);
+}
+
 TEST_CASE("splitting an edge between fixed nodes keeps the new node fixed and the mass") {
   TetMesh m = make_box({.max = Vec3(0.01, 0.01, 0.01), .cells = {1, 1, 1}});
   TissueModel model(m, {Material{}});

@@ -137,7 +137,7 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.tissue.rate == 60.0);
   CHECK(s.tissue.cg_tolerance == 1e-6);
   CHECK(s.tissue.cg_max_iterations == 200);
-  CHECK(s.tissue.local_rings == 4);
+  CHECK(s.tissue.local_rings == 6);
   CHECK(s.tissue.gravity == Vec3(0, 0, -9.81));
   CHECK(s.simulation.visual_rate == 60.0);
   CHECK(s.simulation.cut_recursion_depth == 8);
