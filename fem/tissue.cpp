@@ -52,7 +52,7 @@ void TissueModel::grow() {
     mass_.resize(nn, 0.0);
     rows_.resize(nn);
     entries_.resize(nn);
-    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_}) v->resize(nn, Vec3::Zero());
+    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_, &t_}) v->resize(nn, Vec3::Zero());
     diag_inverse_.resize(nn, Mat3::Identity());
   }
   const std::size_t chunks = std::max(chunk_count(nn), chunk_count(nt));
@@ -302,8 +302,8 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
 // held: v_L += A_LL^{-1} r_L approximately; r_ is kept current everywhere. The preconditioner is
 // symmetric block Gauss-Seidel on A_LL, M = (D + L) D^{-1} (D + U) (SSOR with omega = 1: Saad,
 // "Iterative Methods for Sparse Linear Systems", 2nd ed., section 10.2.1): on the skin slab it needs
-// about 19 iterations where block-Jacobi needed 48, whatever the size of the region, so a region of
-// twice the nodes costs about what block-Jacobi spent on the smaller one.
+// about 19 iterations where block-Jacobi needed 48, whatever the size of the region, and in
+// Eisenstat's form an iteration costs about what a block-Jacobi one does.
 double TissueModel::solve_locally(double rr, double target, StepStats& st) {
   const std::size_t nn = rows_.size();
   in_local_.assign(nn, 0);
@@ -333,66 +333,87 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
     }
     begin = end;
   }
-  // An iteration costs two products with A_LL: the two sweeps (each half of the blocks) and the CG
-  // product.
+  // An iteration costs about one product with A_LL: a sweep each way, each over half of the blocks.
   const int max_iterations =
       std::min(settings_.local_max_iterations,
                static_cast<int>(settings_.local_budget * static_cast<double>(active_count) /
-                                (2.0 * static_cast<double>(local_.size()))));
+                                static_cast<double>(local_.size())));
   std::sort(local_.begin(), local_.end());
   st.local_nodes = local_.size();
 
   // Serial: Gauss-Seidel is, and a region of a few hundred rows is too small to share.
-  // z = M^{-1} r: (D + L) y = r forward, then (D + U) z = D y backward (L, U: the blocks of A_LL
-  // below and above the diagonal in node order).
-  const auto precondition = [&] {
-    double rz = 0;
-    for (const std::uint32_t i : local_) {
-      const BlockRow& row = rows_[i];
-      Vec3 s = r_[i];
-      for (std::size_t k = 0; k < row.diag; ++k)
-        if (in_local_[row.cols[k]]) s.noalias() -= row.blocks[k] * z_[row.cols[k]];
-      z_[i] = diag_inverse_[i] * s;
-    }
-    for (auto k = local_.rbegin(); k != local_.rend(); ++k) {
-      const BlockRow& row = rows_[*k];
-      Vec3 s = Vec3::Zero();
-      for (std::size_t b = row.diag + 1; b < row.cols.size(); ++b)
-        if (in_local_[row.cols[b]]) s.noalias() += row.blocks[b] * z_[row.cols[b]];
-      z_[*k] -= diag_inverse_[*k] * s;
-      rz += r_[*k].dot(z_[*k]);
-    }
-    return rz;
+  // Eisenstat's form (Saad, section 10.2.1; Eisenstat, SIAM J. Sci. Stat. Comput. 2, 1981): CG with
+  // the preconditioner D on A^ = (D + L)^{-1} A (D + U)^{-1}, the same iterates as CG with M, where
+  // A = (D + L) + (D + U) - D makes a product with A^ one sweep each way:
+  //   A^ p = t + (D + L)^{-1} (p - D t),  t = (D + U)^{-1} p.
+  // Unknown x^ = (D + U) dv, residual r^ = (D + L)^{-1} r.
+  const auto lower = [&](const std::uint32_t i, const std::vector<Vec3>& y) {  // (L y)_i
+    const BlockRow& row = rows_[i];
+    Vec3 s = Vec3::Zero();
+    for (std::size_t k = 0; k < row.diag; ++k)
+      if (in_local_[row.cols[k]]) s.noalias() += row.blocks[k] * y[row.cols[k]];
+    return s;
   };
-  for (std::size_t i = 0; i < nn; ++i) p_[i].setZero();  // the held velocities enter only through r
-  double rz = precondition(), rl = 0;
+  const auto upper = [&](const std::uint32_t i, const std::vector<Vec3>& y) {  // (U y)_i
+    const BlockRow& row = rows_[i];
+    Vec3 s = Vec3::Zero();
+    for (std::size_t k = row.diag + 1; k < row.cols.size(); ++k)
+      if (in_local_[row.cols[k]]) s.noalias() += row.blocks[k] * y[row.cols[k]];
+    return s;
+  };
+  const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
+  // ||r||^2 = ||(D + L) r^||^2, the residual the stop is defined on.
+  const auto true_residual = [&] {
+    double sum = 0;
+    for (const std::uint32_t i : local_) sum += (diag(i) * z_[i] + lower(i, z_)).squaredNorm();
+    return sum;
+  };
+  double rl = 0;
   for (const std::uint32_t i : local_) {
-    p_[i] = z_[i];
-    dv_[i].setZero();
     rl += r_[i].squaredNorm();
+    z_[i] = diag_inverse_[i] * (r_[i] - lower(i, z_));  // z_ holds r^
+    dv_[i].setZero();                                   // dv_ holds x^ until the end
+  }
+  double rz = 0;
+  for (const std::uint32_t i : local_) {
+    p_[i] = diag(i) * z_[i];
+    rz += z_[i].dot(p_[i]);
   }
   const double stop = std::max(settings_.local_tolerance * std::sqrt(rl), target);
+  // The true residual costs half a product: it is evaluated when rz, scaled by the ratio
+  // ||r||^2 / rz last seen, says the stop may be reached, and every eighth iteration.
+  double ratio = rz > 0 ? rl / rz : 0;
   int it = 0;
   while (std::sqrt(rl) > stop && it < max_iterations) {
+    for (auto k = local_.rbegin(); k != local_.rend(); ++k)
+      t_[*k] = diag_inverse_[*k] * (p_[*k] - upper(*k, t_));
     double pq = 0;
     for (const std::uint32_t i : local_) {
-      q_[i] = row_product(rows_[i], p_);
-      pq += p_[i].dot(q_[i]);
+      q_[i] = diag_inverse_[i] * (p_[i] - diag(i) * t_[i] - lower(i, q_));
+      pq += p_[i].dot(q_[i] + t_[i]);
     }
+    for (const std::uint32_t i : local_) q_[i] += t_[i];
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
-    rl = 0;
+    double rz_new = 0;
     for (const std::uint32_t i : local_) {
       dv_[i] += alpha * p_[i];
-      r_[i] -= alpha * q_[i];
-      rl += r_[i].squaredNorm();
+      z_[i] -= alpha * q_[i];
+      rz_new += z_[i].dot(diag(i) * z_[i]);
     }
-    const double rz_new = precondition();
+    ++it;
+    if (ratio * rz_new <= stop * stop || it % 8 == 0) {
+      rl = true_residual();
+      ratio = rz_new > 0 ? rl / rz_new : 0;
+    }
     const double beta = rz_new / rz;
     rz = rz_new;
-    for (const std::uint32_t i : local_) p_[i] = z_[i] + beta * p_[i];
-    ++it;
+    for (const std::uint32_t i : local_) p_[i] = diag(i) * z_[i] + beta * p_[i];
   }
+  // dv = (D + U)^{-1} x^ in place, r_L = (D + L) r^.
+  for (auto k = local_.rbegin(); k != local_.rend(); ++k)
+    dv_[*k] = diag_inverse_[*k] * (dv_[*k] - upper(*k, dv_));
+  for (auto k = local_.rbegin(); k != local_.rend(); ++k) r_[*k] = diag(*k) * z_[*k] + lower(*k, z_);
   st.local_iterations = it;
   // r_L is current; the ring just outside L sees the update through its columns in L.
   for (const std::uint32_t i : local_) v_[i] += dv_[i];

@@ -204,7 +204,7 @@ class TissueModel {
   std::vector<std::uint8_t> in_local_;
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
-  std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_;
+  std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_, t_;
   std::vector<Mat3> diag_inverse_;
   std::vector<double> partial_;
 };
