@@ -22,8 +22,8 @@
 //   P = (I - omega_p / lambda D^{-1} A) T,  lambda ~ lambda_max(D^{-1} A),
 // which lowers the energy of the coarse basis functions (fewer iterations) but couples each node to
 // the aggregates of its neighbours: P, Ac and its factor are two to three times larger. The default
-// keeps P = T: on the skin slab of bench/bench_fem.cpp a 12 mm incision made at once then needs 17
-// iterations instead of 18 (bench_fem AfterCut/24/0/3), and a rebuild costs about 1.5 times as
+// keeps P = T: on the skin slab of bench/bench_fem.cpp a 12 mm incision made at once then needs 15
+// iterations instead of 17 (bench_fem AfterCut/24/0/3), and a rebuild costs about 1.5 times as
 // much. The coarse operator is the Galerkin product
 //   Ac = P^T A P  (6 x 6 blocks, one block row per aggregate),
 // factorised by a sparse LDL^T (Eigen SimplicialLDLT, AMD ordering).
@@ -36,7 +36,7 @@
 // fixed vector (Lanczos from the CG coefficients: Saad, "Iterative Methods for Sparse Linear
 // Systems", 2nd ed., section 6.7.3; PETSc's Chebyshev smoother takes the same [0.1, 1.1] lambda).
 // A Ritz value approaches lambda_max from below, within a few per cent after 15 steps; 1.1 covers it.
-// Degree 4 halves the iterations after that incision (9 instead of 18, AfterCut/24/0/2) but not
+// Degree 4 halves the iterations after that incision (9 instead of 17, AfterCut/24/0/2) but not
 // the time: each costs 8 products with A instead of 2.
 //
 // Preconditioner: the symmetric two-grid cycle (Trottenberg, Oosterlee, Schüller, "Multigrid",
