@@ -301,7 +301,7 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
 // CG on the rows of local_ (the nodes within local_rings of a changed row), with v outside them
 // held: v_L += A_LL^{-1} r_L approximately; r_ is kept current everywhere. The preconditioner is
 // symmetric block Gauss-Seidel on A_LL, M = (D + L) D^{-1} (D + U) (SSOR with omega = 1: Saad,
-// "Iterative Methods for Sparse Linear Systems", 2nd ed., section 10.2.1): on the skin slab it needs
+// "Iterative Methods for Sparse Linear Systems", 2nd ed., section 10.2): on the skin slab it needs
 // about 19 iterations where block-Jacobi needed 48, whatever the size of the region, and in
 // Eisenstat's form an iteration costs about what a block-Jacobi one does.
 double TissueModel::solve_locally(double rr, double target, StepStats& st) {
@@ -342,8 +342,9 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
   st.local_nodes = local_.size();
 
   // Serial: Gauss-Seidel is, and a region of a few hundred rows is too small to share.
-  // Eisenstat's form (Saad, section 10.2.1; Eisenstat, SIAM J. Sci. Stat. Comput. 2, 1981): CG with
-  // the preconditioner D on A^ = (D + L)^{-1} A (D + U)^{-1}, the same iterates as CG with M, where
+  // Eisenstat's form ("Efficient implementation of a class of preconditioned conjugate gradient
+  // methods", SIAM J. Sci. Stat. Comput. 2, 1981): CG with the preconditioner D on
+  // A^ = (D + L)^{-1} A (D + U)^{-1}, the same iterates as CG with M, where
   // A = (D + L) + (D + U) - D makes a product with A^ one sweep each way:
   //   A^ p = t + (D + L)^{-1} (p - D t),  t = (D + U)^{-1} p.
   // Unknown x^ = (D + U) dv, residual r^ = (D + L)^{-1} r.
