@@ -316,7 +316,8 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
   const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
   // A change that reaches half of the tissue (the first step, a severed part) is not local.
   if (local_.empty() || 2 * local_.size() > active_count) return rr;
-  // Rings are added while the region stays within local_fraction of the active nodes.
+  // Rings are added while the region stays within local_fraction of the active nodes (the first
+  // ring always).
   const auto cap = static_cast<std::size_t>(settings_.local_fraction * static_cast<double>(active_count));
   for (int ring = 0, begin = 0; ring < settings_.local_rings; ++ring) {
     const auto end = static_cast<int>(local_.size());
@@ -363,10 +364,11 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
     return s;
   };
   const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
-  // ||r||^2 = ||(D + L) r^||^2, the residual the stop is defined on.
+  // r_i = ((D + L) r^)_i, the residual the stop is defined on.
+  const auto residual = [&](const std::uint32_t i) { return Vec3(diag(i) * z_[i] + lower(i, z_)); };
   const auto true_residual = [&] {
     double sum = 0;
-    for (const std::uint32_t i : local_) sum += (diag(i) * z_[i] + lower(i, z_)).squaredNorm();
+    for (const std::uint32_t i : local_) sum += residual(i).squaredNorm();
     return sum;
   };
   double rl = 0;
@@ -400,7 +402,8 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
     for (const std::uint32_t i : local_) {
       dv_[i] += alpha * p_[i];
       z_[i] -= alpha * q_[i];
-      rz_new += z_[i].dot(diag(i) * z_[i]);
+      t_[i] = diag(i) * z_[i];  // the preconditioned residual D r^, for rz and p
+      rz_new += z_[i].dot(t_[i]);
     }
     ++it;
     if (ratio * rz_new <= stop * stop || it % 8 == 0) {
@@ -409,12 +412,12 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
     }
     const double beta = rz_new / rz;
     rz = rz_new;
-    for (const std::uint32_t i : local_) p_[i] = diag(i) * z_[i] + beta * p_[i];
+    for (const std::uint32_t i : local_) p_[i] = t_[i] + beta * p_[i];
   }
   // dv = (D + U)^{-1} x^ in place, r_L = (D + L) r^.
   for (auto k = local_.rbegin(); k != local_.rend(); ++k)
     dv_[*k] = diag_inverse_[*k] * (dv_[*k] - upper(*k, dv_));
-  for (auto k = local_.rbegin(); k != local_.rend(); ++k) r_[*k] = diag(*k) * z_[*k] + lower(*k, z_);
+  for (const std::uint32_t i : local_) r_[i] = residual(i);
   st.local_iterations = it;
   // r_L is current; the ring just outside L sees the update through its columns in L.
   for (const std::uint32_t i : local_) v_[i] += dv_[i];
