@@ -211,6 +211,9 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
     v->reserve(coarse_.tet_capacity() + coarse_.tet_capacity() / 8);
   level_.reserve(unit_live_.capacity());
   last_touch_.reserve(unit_live_.capacity());
+  original_.resize(mesh.tet_capacity());
+  for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t)
+    if (mesh.tet_slot_alive(t)) original_[t] = mesh.tet_vertex_indices(t);
 }
 
 CutEngine::~CutEngine() = default;
@@ -1101,6 +1104,66 @@ std::vector<Vec3> CutEngine::cut_points() const {
   std::vector<Vec3> out;
   for (const CutNode& n : cut_nodes_)
     if (n.kind != CutNode::Kind::Mid && !n.copies.empty()) out.push_back(mesh_.rest(n.copies[0]));
+  return out;
+}
+
+std::optional<TetLocation> CutEngine::locate(const Vec3& p) const {
+  // Barycentric weights by volumes: w_i is the volume with p in place of corner i over the whole.
+  const auto weights = [&p](const std::array<Vec3, 4>& x) -> std::optional<std::array<double, 4>> {
+    const auto volume = [](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+      return (b - a).cross(c - a).dot(d - a);
+    };
+    const double whole = volume(x[0], x[1], x[2], x[3]);
+    if (!(whole > 0.0)) return std::nullopt;
+    return std::array<double, 4>{volume(p, x[1], x[2], x[3]) / whole, volume(x[0], p, x[2], x[3]) / whole,
+                                 volume(x[0], x[1], p, x[3]) / whole, volume(x[0], x[1], x[2], p) / whole};
+  };
+  const auto inside = [](const std::optional<std::array<double, 4>>& w) {
+    constexpr double kSlack = 1e-9;  // a point on a shared face belongs to either side
+    return w && std::all_of(w->begin(), w->end(), [](double wi) { return wi >= -kSlack; });
+  };
+  const auto corners = [](const TetMesh& m, const std::array<std::uint32_t, 4>& v) {
+    const auto& x = m.positions();
+    return std::array<Vec3, 4>{x[v[0]], x[v[1]], x[v[2]], x[v[3]]};
+  };
+  // The live tetrahedron at p: the unit whose corners enclose it, or the sub-tetrahedron of a cut
+  // unit that does (none in an opened crack).
+  TetId at;
+  std::vector<std::int32_t> stack;
+  sweep_->tree().query(
+      [&](const Aabb& box) {
+        return at.is_null() && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
+      },
+      [&](std::uint32_t unit) {
+        if (!at.is_null() || !coarse_.tet_slot_alive(unit)) return;
+        if (!inside(weights(corners(coarse_, coarse_.tet_vertex_indices(unit))))) return;
+        const auto it = cut_tets_.find(unit);
+        if (it == cut_tets_.end()) {
+          at = mesh_.tet_handle(unit_live_[unit]);
+          return;
+        }
+        for (const TetId t : it->second.live)
+          if (mesh_.alive(t) && inside(weights(corners(mesh_, mesh_.tet_vertex_indices(t.index))))) {
+            at = t;
+            return;
+          }
+      },
+      stack);
+  if (at.is_null()) return std::nullopt;
+  // Weights on the corners of the tetrahedron of the original mesh it descends from, at their
+  // current positions; outside them (the original tetrahedron is cut and deformed) the nearest
+  // point's weights: the negative ones clamped, the rest rescaled.
+  TetLocation out;
+  out.original = mesh_.parent(at);
+  const auto& v = original_[out.original];
+  std::array<double, 4> w =
+      weights(corners(mesh_, v)).value_or(std::array<double, 4>{0.25, 0.25, 0.25, 0.25});
+  double sum = 0;
+  for (double& wi : w) sum += (wi = std::max(wi, 0.0));
+  for (int i = 0; i < 4; ++i) {
+    out.corners[i] = mesh_.node_handle(v[i]);
+    out.weights[i] = w[i] / sum;
+  }
   return out;
 }
 

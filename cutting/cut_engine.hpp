@@ -44,6 +44,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -100,6 +101,14 @@ struct CutChanges {
     added_node_parents.clear();
     moved_nodes.clear();
   }
+};
+
+// A point in the tissue, on the tetrahedron of the original mesh it lies in: that tetrahedron's
+// slot, its corners (live nodes, never cut nodes) and the point's barycentric weights on them.
+struct TetLocation {
+  std::uint32_t original = 0;
+  std::array<NodeId, 4> corners{};
+  std::array<double, 4> weights{};  // >= 0, sum 1
 };
 
 // What one tool sample did.
@@ -178,6 +187,12 @@ class CutEngine {
   // The largest distance between two copies of one cut node [m], current configuration: how far
   // the cut has opened.
   [[nodiscard]] double crack_opening() const;
+  // Where point p is in the tissue, current configuration: none outside it or in an opened crack.
+  // Weights are on the corners of the original tetrahedron (before any cut) that holds p, which
+  // carry the mass and stiffness of their neighbourhood, unlike cut nodes; where cutting has
+  // deformed it so that it no longer encloses p, negative weights are clamped. Costs a tree
+  // descent (positions as of the last refit()).
+  [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p) const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
   // Invariant 5 (DESIGN section 5): every copy of every cut node lies, in the rest configuration,
@@ -280,6 +295,7 @@ class CutEngine {
   std::vector<std::uint64_t> last_touch_;  // by unit slot: the last step whose sweep touched it
   std::uint64_t step_count_ = 0, stroke_start_ = 0;
   std::vector<std::uint8_t> level_;
+  std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction
   // Crack faces of promoted components (one side's real nodes), for the cut-surface area.
   std::vector<std::array<NodeId, 3>> retired_crack_faces_;
   std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed

@@ -294,6 +294,21 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
          {{"max", max_limited}, {"last", steps.empty() ? std::size_t{0} : steps.back().strain_limited}}},
         {"wound_opening", sim.wound_opening()}};
   }
+  {
+    std::size_t frames_in_contact = 0;
+    double force_max = 0, force_sum = 0;
+    for (const double f : sim.contact_forces()) {
+      if (f > 0.0) ++frames_in_contact;
+      force_max = std::max(force_max, f);
+      force_sum += f;
+    }
+    report["tool_contact"] = {
+        {"cutting_resistance", scenario.tool.cutting_resistance},
+        {"frames", frames_in_contact},
+        {"force_on_tissue",
+         {{"max", force_max},
+          {"mean_in_contact", force_sum / std::max<double>(1.0, static_cast<double>(frames_in_contact))}}}};
+  }
   if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);
   // Tissue steps right after a cut (the mesh changed since the step before) and the others.
   std::vector<double> after_cut, without_cut;

@@ -437,8 +437,12 @@ void Parser::fixed(const Value& v, std::vector<FixedSelector>& out) const {
 
 void Parser::tool(const Value& v, ToolSettings& out) const {
   const Map m(*this, v);
-  m.only({"name", "blade"});
+  m.only({"name", "blade", "cutting_resistance"});
   if (const auto x = m.get("name")) out.name = string(*x);
+  if (const auto x = m.get("cutting_resistance")) {
+    out.cutting_resistance = number(*x);
+    check(*x, out.cutting_resistance >= 0.0 && out.cutting_resistance <= 1e5, "0 <= value <= 1e5 [N/m]");
+  }
   if (const auto x = m.get("blade")) {
     const Map b(*this, *x);
     b.only({"back", "tip", "edge"});

@@ -79,6 +79,9 @@ struct ToolSettings {
   // Unit direction the sharp edge faces, tool frame, across the blade; none: the blade's motion
   // (every crossing is forward, Eq. 1).
   std::optional<Vec3> blade_edge;
+  // Force per length of blade inside the tissue, against the blade's motion [N/m]: the hand feels
+  // it and the tissue is dragged by it (sim/simulation.hpp).
+  double cutting_resistance = 350.0;
 };
 
 enum class DeviceKind { Mock, Hid, Libusb, Mouse };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 
 namespace scalpel {
 
@@ -56,9 +57,8 @@ BladePose Simulation::blade(const ToolSample& s) const {
 
 void Simulation::on_sample(const ToolSample& s) {
   const auto start = std::chrono::steady_clock::now();
-  const CutStepStats stats = cutter_->step(blade(s));
+  cutter_->step(blade(s));
   cut_seconds_.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  edges_cut_in_frame_ += stats.edges_cut;
   // Topology changes go to the tissue model. Elements around a mid node that slid with the blade
   // changed their rest shape: they are handed over as removed and added again.
   const CutChanges& c = cutter_->changes();
@@ -75,10 +75,38 @@ void Simulation::on_sample(const ToolSample& s) {
   if (!added.empty()) tissue_->on_tets_added(added);
   topology_changed_ = topology_changed_ || !c.added_nodes.empty() || !removed.empty() || !added.empty();
   last_ = s;
+  sampled_in_frame_ = true;
   ++samples_;
 }
 
+void Simulation::push_tissue() {
+  tissue_->clear_external_forces();
+  contact_ = {};
+  if (!sampled_in_frame_ || !frame_start_ || !(last_.t > frame_start_->t)) return;
+  const BladePose now = blade(last_);
+  const BladePose before = blade(*frame_start_);
+  const double dt = last_.t - frame_start_->t;
+  const double ds = (now.tip - now.back).norm() / kEdgePoints;
+  std::map<std::uint32_t, Vec3> loads;  // by node slot, in slot order: the sums are deterministic
+  for (int k = 0; k < kEdgePoints; ++k) {
+    const double u = (k + 0.5) / kEdgePoints;  // midpoints of equal parts, from the back
+    const Vec3 p = now.back + u * (now.tip - now.back);
+    const std::optional<TetLocation> at = cutter_->locate(p);
+    if (!at) continue;
+    contact_.length += ds;
+    const Vec3 v = (p - (before.back + u * (before.tip - before.back))) / dt;
+    const Vec3 f =
+        scenario_.tool.cutting_resistance * ds / std::max(v.norm(), ForceRenderer::kCutSpeedFloor) * v;
+    contact_.force += f;
+    for (int i = 0; i < 4; ++i)
+      loads.try_emplace(at->corners[i].index, Vec3::Zero()).first->second += at->weights[i] * f;
+  }
+  for (const auto& [slot, f] : loads) tissue_->set_external_force(mesh_.node_handle(slot), f);
+  contact_.loaded_nodes = loads.size();
+}
+
 void Simulation::end_frame(double t, ForceChannel& forces) {
+  push_tissue();
   const double dt = 1.0 / scenario_.tissue.rate;
   while (tissue_time_ + dt <= t + 1e-12) {
     const auto start = std::chrono::steady_clock::now();
@@ -90,17 +118,17 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     tissue_time_ += dt;
   }
   cutter_->refit();
-  // The force model the haptic loop renders until the next frame. The tissue does not constrain the
-  // tool yet, so the coupling holds it where it is; while edges are being cut the blade meets a
-  // resistance of the order measured for scalpels in skin (about 1 N).
-  constexpr double kCuttingResistance = 1.0;  // [N]
+  // The force model the haptic loop renders until the next frame: the resistance of the blade's
+  // edge inside the tissue (see simulation.hpp). The coupling spring is off (k_c = 0).
   ForceModel model;
   model.sequence = ++force_sequence_;
   model.t = t;
   model.constrained_position = last_.position;
-  model.cutting_resistance = edges_cut_in_frame_ > 0 ? kCuttingResistance : 0.0;
+  model.cutting_resistance = scenario_.tool.cutting_resistance * contact_.length;
   forces.publish(model);
-  edges_cut_in_frame_ = 0;
+  contact_forces_.push_back(contact_.force.norm());
+  if (samples_ > 0) frame_start_ = last_;
+  sampled_in_frame_ = false;
 }
 
 }  // namespace scalpel

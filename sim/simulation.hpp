@@ -2,10 +2,21 @@
 // tool samples drained from the haptic queue, sweeps the blade through the cutter at every sample
 // (DESIGN section 2: every 1 kHz sample is a sweep step), and at the end of each visual frame steps
 // the tissue and publishes the force model for the haptic loop.
+//
+// Tool contact: the blade cuts whatever it meets, and the part of its edge inside the tissue meets a
+// resistance of `tool.cutting_resistance` per length, against its motion. The hand feels the total
+// (ForceModel::cutting_resistance, rendered at 1 kHz); the tissue takes the reaction: at kEdgePoints
+// points along the edge, each point in the tissue pushes it along the point's own velocity over the
+// frame, R ds v / max(|v|, v_eps) (v_eps as the haptic renderer's). The push goes to the corners of
+// the original tetrahedron the point lies in (CutEngine::locate), by its barycentric weights: the
+// consistent nodal load of a point force on the uncut mesh. Cut nodes take none: some carry almost
+// no mass, and a share of the push would fling them. The loads hold for the tissue steps of that
+// frame; a blade at rest or outside the tissue pushes nothing.
 #pragma once
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
@@ -58,7 +69,21 @@ class Simulation {
   // Widest opening of the wound: the largest distance between two copies of one cut node [m].
   [[nodiscard]] double wound_opening() const;
 
+  // The tool's push on the tissue in the last frame (see above).
+  struct ToolContact {
+    Vec3 force = Vec3::Zero();     // [N] total on the tissue
+    double length = 0.0;           // [m] of blade edge inside the tissue
+    std::size_t loaded_nodes = 0;  // nodes that carry part of it
+  };
+  static constexpr int kEdgePoints = 16;
+  [[nodiscard]] const ToolContact& tool_contact() const { return contact_; }
+  // Per frame: the magnitude of the force on the tissue [N].
+  [[nodiscard]] const std::vector<double>& contact_forces() const { return contact_forces_; }
+
  private:
+  // Sets the tissue's external forces from the blade's motion over the frame (see above).
+  void push_tissue();
+
   Scenario scenario_;
   TetMesh mesh_;
   double initial_volume_ = 0.0;
@@ -70,8 +95,11 @@ class Simulation {
   std::vector<std::uint8_t> tissue_after_cut_;
   bool topology_changed_ = false;  // since the last tissue step
   std::size_t samples_ = 0;
-  std::size_t edges_cut_in_frame_ = 0;
   ToolSample last_;
+  std::optional<ToolSample> frame_start_;  // the last sample before this frame
+  bool sampled_in_frame_ = false;
+  ToolContact contact_;
+  std::vector<double> contact_forces_;
   std::vector<double> cut_seconds_;
   std::uint64_t force_sequence_ = 0;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <tuple>
 #include <vector>
 
@@ -590,4 +591,59 @@ TEST_CASE("an opened crack stays open where later cuts reach it: copies follow t
     CHECK(cutter.totals().recursions > 0);
     CHECK(cutter.totals().recursion_fallbacks == 0);
   }
+}
+
+TEST_CASE(
+    "locate: a point in the tissue gives its original tetrahedron's corners and weights; a gap gives none") {
+  TetMesh mesh = make_box({.cells = {4, 4, 4}});
+  CutEngine cutter(mesh);
+  const std::size_t original_nodes = mesh.node_capacity();
+  const double x0 = 0.37;
+  const Vec3 inside(0.2, 0.55, 0.45);
+  const auto check_weights = [&](const Vec3& p) {
+    const std::optional<TetLocation> at = cutter.locate(p);
+    REQUIRE(at.has_value());
+    Vec3 sum = Vec3::Zero();
+    double total = 0;
+    for (int i = 0; i < 4; ++i) {
+      REQUIRE(mesh.alive(at->corners[i]));
+      CHECK(at->corners[i].index < original_nodes);  // never a cut node
+      CHECK(at->weights[i] >= -1e-9);
+      sum += at->weights[i] * mesh.position(at->corners[i]);
+      total += at->weights[i];
+    }
+    CHECK(std::abs(total - 1.0) < 1e-12);
+    CHECK((sum - p).norm() < 1e-12);
+    return *at;
+  };
+  check_weights(inside);
+  CHECK_FALSE(cutter.locate(Vec3(1.2, 0.5, 0.5)).has_value());  // beside the box
+  CHECK_FALSE(cutter.locate(Vec3(0.5, 0.5, 1.1)).has_value());  // above it
+
+  // Half a through-cut: on the cut plane ahead of the blade the tissue is whole.
+  cutter.place(vertical_blade(x0, -0.5));
+  for (int k = 1; k <= 100; ++k) cutter.step(vertical_blade(x0, -0.5 + 0.01 * k));
+  check_weights(Vec3(x0, 0.9, 0.5));
+
+  // The whole cut, and the far side moved 0.1 away: the gap between the halves is not tissue,
+  // although the hulls of the cut units' corners span it.
+  for (int k = 101; k <= 200; ++k) cutter.step(vertical_blade(x0, -0.5 + 0.01 * k));
+  std::vector<std::uint8_t> far(mesh.node_capacity(), 0);
+  for (const TetId t : mesh.tets()) {
+    double lo = 1e9;
+    for (const NodeId n : mesh.tet_nodes(t)) lo = std::min(lo, mesh.rest(n).x());
+    if (lo >= x0 - 1e-12)
+      for (const NodeId n : mesh.tet_nodes(t)) far[n.index] = 1;
+  }
+  for (const NodeId n : mesh.nodes())
+    if (far[n.index]) mesh.set_position(n, mesh.position(n) + Vec3(0.1, 0, 0));
+  cutter.refit();
+  check_weights(inside);
+  check_weights(Vec3(0.6, 0.55, 0.45));
+  for (const double y : {0.1, 0.3, 0.5, 0.7, 0.9})
+    for (const double z : {0.1, 0.3, 0.5, 0.7, 0.9}) {
+      CAPTURE(y);
+      CAPTURE(z);
+      CHECK_FALSE(cutter.locate(Vec3(x0 + 0.05, y, z)).has_value());
+    }
 }

@@ -148,6 +148,7 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.device.mapping.scale == 1.0);
   CHECK(s.tool.blade_back == Vec3(0, 0, 0.02));
   CHECK(s.tool.blade_tip == Vec3::Zero());
+  CHECK(s.tool.cutting_resistance == 350.0);
   CHECK(s.mesh.slab.split == CubeSplit::Six);
   REQUIRE(s.materials.size() == 2);
   CHECK(s.materials[0].region == "top");
@@ -169,6 +170,7 @@ TEST_CASE("scenario: every section parsed") {
                            "tool:\n"
                            "  name: blade15\n"
                            "  blade: {back: [0, 0.001, 0.01], tip: [0, 0, 0]}\n"
+                           "  cutting_resistance: 200\n"
                            "device:\n"
                            "  kind: hid\n"
                            "  profile: novint_falcon\n"
@@ -188,6 +190,7 @@ TEST_CASE("scenario: every section parsed") {
   CHECK(s.tissue.volume_springs);
   CHECK(s.tool.name == "blade15");
   CHECK(s.tool.blade_back == Vec3(0, 0.001, 0.01));
+  CHECK(s.tool.cutting_resistance == 200.0);
   CHECK(s.device.kind == DeviceKind::Hid);
   CHECK(s.device.profile == "novint_falcon");
   CHECK(s.device.rate == 2000.0);
@@ -273,6 +276,8 @@ TEST_CASE("scenario: each schema error names the file, line, column and key path
        "tissue.volume_springs", "mass_spring only"},
       {"blade of zero length", base_text() + "tool: {blade: {back: [0, 0, 0], tip: [0, 0, 0]}}\n", 21, 38,
        "tool.blade.tip", "blade length"},
+      {"negative cutting resistance", base_text() + "tool: {cutting_resistance: -1}\n", 21, 28,
+       "tool.cutting_resistance", "out of range"},
       {"mesh file and generator", with_line(3, "  generator: slab\n  file: a.msh"), 4, 3, "mesh.file",
        "not both"},
       {"bad YAML: unclosed bracket", with_line(4, "  size: [0.02, 0.01"), 5, 0, "", ""},

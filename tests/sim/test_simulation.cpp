@@ -43,9 +43,11 @@ tool:
   blade: {back: [0, 0, 0.006], tip: [0, 0, 0]}
 )";
 
-Scenario scenario(const std::string& model, int recursion_depth = 0) {
+// cutting_resistance < 0: the scenario's default.
+Scenario scenario(const std::string& model, int recursion_depth = 0, double cutting_resistance = -1) {
   std::string text = kScenario;
   text.replace(text.find("MODEL"), 5, model);
+  if (cutting_resistance >= 0) text += "  cutting_resistance: " + std::to_string(cutting_resistance) + "\n";
   text += "simulation: {cut_recursion_depth: " + std::to_string(recursion_depth) + "}\n";
   return parse_scenario(text, "random_cuts.yaml", ".");
 }
@@ -178,6 +180,79 @@ TEST_CASE("tissue steps are marked when a cut changed the mesh since the step be
   REQUIRE(after.size() == sim.tissue_step_seconds().size());
   REQUIRE(after.size() == 5);
   CHECK(after == std::vector<std::uint8_t>{0, 0, 0, 1, 0});
+}
+
+namespace {
+
+// The blade enters the patch of kScenario from above, 2 mm deep, then runs along +x at 20 mm/s for
+// 0.3 s; a frame every 16 samples, each phase whole frames. `during` sees each frame of the run
+// along x.
+template <class During>
+std::unique_ptr<Simulation> straight_stroke(double cutting_resistance, During&& during) {
+  auto sim = std::make_unique<Simulation>(scenario("corotational", 0, cutting_resistance));
+  ForceChannel forces;
+  ToolSample s;
+  double t = 0;
+  int samples = 0;
+  const auto sample = [&](const Vec3& p, bool along) {
+    s.t += 0.001;
+    s.position = p;
+    sim->on_sample(s);
+    if (++samples % 16 == 0) {
+      sim->end_frame(t += 0.016, forces);
+      forces.update();
+      if (along) during(*sim, forces.read());
+    }
+  };
+  const Vec3 entry(-0.0051, 0.0007, 0.004);
+  for (int k = 0; k < 480; ++k) sample(entry, false);  // settle
+  for (int k = 1; k <= 320; ++k) sample(entry - Vec3(0, 0, 0.006 * k / 320), false);
+  for (int k = 1; k <= 304; ++k) sample(entry + Vec3(2e-5 * k, 0, -0.006), true);
+  return sim;
+}
+
+// Mean x displacement of the top surface's nodes within 3 mm ahead of x [m].
+double surface_drag_ahead(const Simulation& sim, double x) {
+  double sum = 0;
+  int n = 0;
+  for (const NodeId id : sim.mesh().nodes()) {
+    const Vec3& r = sim.mesh().rest(id);
+    if (r.z() > -1e-9 && r.x() > x && r.x() < x + 0.003 && std::abs(r.y()) < 0.004) {
+      sum += sim.mesh().position(id).x() - r.x();
+      ++n;
+    }
+  }
+  REQUIRE(n > 0);
+  return sum / n;
+}
+
+}  // namespace
+
+TEST_CASE("the tool drags the tissue it cuts: the push is the resistance the hand feels, along the motion") {
+  constexpr double kResistance = 350.0;  // [N/m]
+  int in_contact = 0;
+  const auto pushed = straight_stroke(kResistance, [&](const Simulation& sim, const ForceModel& model) {
+    const Simulation::ToolContact& c = sim.tool_contact();
+    // Action and reaction: the haptic model renders R times the edge length inside the tissue;
+    // every point of the edge moves at 20 mm/s, above the speed floor, so the push on the tissue
+    // has that magnitude, along +x.
+    CHECK(model.cutting_resistance == doctest::Approx(kResistance * c.length).epsilon(1e-12));
+    if (c.length == 0) return;
+    ++in_contact;
+    CHECK(c.force.norm() == doctest::Approx(kResistance * c.length).epsilon(1e-9));
+    CHECK(c.force.normalized().x() > 1 - 1e-9);
+    CHECK(c.loaded_nodes >= 4);
+  });
+  CHECK(in_contact >= 15);
+  const auto free = straight_stroke(0.0, [](const Simulation& sim, const ForceModel& model) {
+    CHECK(sim.tool_contact().force.norm() == 0.0);
+    CHECK(model.cutting_resistance == 0.0);
+  });
+  const double blade_x = -0.0051 + 0.00608;
+  const double with = surface_drag_ahead(*pushed, blade_x), without = surface_drag_ahead(*free, blade_x);
+  MESSAGE("surface ahead of the blade moved " << with * 1e6 << " um along the cut with the push, "
+                                              << without * 1e6 << " um without");
+  CHECK(with > without + 20e-6);
 }
 
 namespace {
