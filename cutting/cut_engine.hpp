@@ -187,12 +187,13 @@ class CutEngine {
   // The largest distance between two copies of one cut node [m], current configuration: how far
   // the cut has opened.
   [[nodiscard]] double crack_opening() const;
-  // Where point p is in the tissue, current configuration: none outside it or in an opened crack.
-  // Weights are on the corners of the original tetrahedron (before any cut) that holds p, which
-  // carry the mass and stiffness of their neighbourhood, unlike cut nodes; where cutting has
-  // deformed it so that it no longer encloses p, negative weights are clamped. Costs a tree
-  // descent (positions as of the last refit()).
-  [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p) const;
+  // Where point p is in the tissue, current configuration: none outside it or in an opened crack
+  // wider than 2 `margin` [m] (a blade on its own cut lies on the crack faces, which may have
+  // parted by a fraction of its thickness). Weights are on the corners of the original tetrahedron
+  // (before any cut) that holds p, which carry the mass and stiffness of their neighbourhood,
+  // unlike cut nodes; where cutting has deformed it so that it no longer encloses p, negative
+  // weights are clamped. Costs a tree descent (positions as of the last refit()).
+  [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p, double margin = 0.0) const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
   // Invariant 5 (DESIGN section 5): every copy of every cut node lies, in the rest configuration,

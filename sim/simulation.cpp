@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <map>
 
 namespace scalpel {
@@ -86,12 +87,14 @@ void Simulation::push_tissue() {
   const BladePose now = blade(last_);
   const BladePose before = blade(*frame_start_);
   const double dt = last_.t - frame_start_->t;
-  const double ds = (now.tip - now.back).norm() / kEdgePoints;
+  const double length = (now.tip - now.back).norm();
+  const int points = std::clamp(static_cast<int>(std::ceil(length / kEdgeSpacing)), 1, kMaxEdgePoints);
+  const double ds = length / points;
   std::map<std::uint32_t, Vec3> loads;  // by node slot, in slot order: the sums are deterministic
-  for (int k = 0; k < kEdgePoints; ++k) {
-    const double u = (k + 0.5) / kEdgePoints;  // midpoints of equal parts, from the back
+  for (int k = 0; k < points; ++k) {
+    const double u = (k + 0.5) / points;  // midpoints of equal parts, from the back
     const Vec3 p = now.back + u * (now.tip - now.back);
-    const std::optional<TetLocation> at = cutter_->locate(p);
+    const std::optional<TetLocation> at = cutter_->locate(p, kBladeHalfThickness);
     if (!at) continue;
     contact_.length += ds;
     const Vec3 v = (p - (before.back + u * (before.tip - before.back))) / dt;

@@ -5,13 +5,14 @@
 //
 // Tool contact: the blade cuts whatever it meets, and the part of its edge inside the tissue meets a
 // resistance of `tool.cutting_resistance` per length, against its motion. The hand feels the total
-// (ForceModel::cutting_resistance, rendered at 1 kHz); the tissue takes the reaction: at kEdgePoints
-// points along the edge, each point in the tissue pushes it along the point's own velocity over the
-// frame, R ds v / max(|v|, v_eps) (v_eps as the haptic renderer's). The push goes to the corners of
-// the original tetrahedron the point lies in (CutEngine::locate), by its barycentric weights: the
-// consistent nodal load of a point force on the uncut mesh. Cut nodes take none: some carry almost
-// no mass, and a share of the push would fling them. The loads hold for the tissue steps of that
-// frame; a blade at rest or outside the tissue pushes nothing.
+// (ForceModel::cutting_resistance, rendered at 1 kHz); the tissue takes the reaction: at points
+// kEdgeSpacing apart along the edge, each point in the tissue (or within kBladeHalfThickness of it
+// on its own cut) pushes it along the point's own velocity over the frame, R ds v / max(|v|, v_eps)
+// (v_eps as the haptic renderer's). The push goes to the corners of the original tetrahedron the
+// point lies in (CutEngine::locate), by its barycentric weights: the consistent nodal load of a
+// point force on the uncut mesh. Cut nodes take none: some carry almost no mass, and a share of the
+// push would fling them. The loads hold for the tissue steps of that frame; a blade at rest or
+// outside the tissue pushes nothing.
 #pragma once
 
 #include <filesystem>
@@ -75,7 +76,11 @@ class Simulation {
     double length = 0.0;           // [m] of blade edge inside the tissue
     std::size_t loaded_nodes = 0;  // nodes that carry part of it
   };
-  static constexpr int kEdgePoints = 16;
+  // Points along the blade's edge where contact is sought: this far apart, at most this many.
+  static constexpr double kEdgeSpacing = 0.1e-3;  // [m]
+  static constexpr int kMaxEdgePoints = 1000;
+  // A scalpel blade is about 0.4 mm thick: on its own cut it touches faces that far apart.
+  static constexpr double kBladeHalfThickness = 0.2e-3;  // [m]
   [[nodiscard]] const ToolContact& tool_contact() const { return contact_; }
   // Per frame: the magnitude of the force on the tissue [N].
   [[nodiscard]] const std::vector<double>& contact_forces() const { return contact_forces_; }

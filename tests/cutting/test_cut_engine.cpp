@@ -645,5 +645,8 @@ TEST_CASE(
       CAPTURE(y);
       CAPTURE(z);
       CHECK_FALSE(cutter.locate(Vec3(x0 + 0.05, y, z)).has_value());
+      // A blade 0.12 thick in that 0.1 wide gap touches both sides.
+      CHECK(cutter.locate(Vec3(x0 + 0.05, y, z), 0.06).has_value());
+      CHECK_FALSE(cutter.locate(Vec3(x0 + 0.05, y, z), 0.04).has_value());
     }
 }
