@@ -88,6 +88,7 @@ void TissueModel::on_tets_added(std::span<const TetId> tets) {
     tet_vertices_[t] = mesh_.tet_vertex_indices(t);
     for (size_t a = 0; a < 4; ++a) x[a] = mesh_.rest_positions()[tet_vertices_[t][a]];
     rest_[t] = make_tet_rest(x, materials_[static_cast<std::size_t>(region)], settings_.sliver_quality);
+    if (!settings_.volume_springs) rest_[t].volume_k = 0;  // edge springs alone
     tet_region_[t] = region;
     // The rotation starts from the ancestor's slot (the parent itself, or a sibling that reused it).
     const std::uint32_t p = mesh_.parent(id);

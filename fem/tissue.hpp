@@ -77,6 +77,7 @@ struct TissueSettings {
   double sliver_quality = 0.05;          // q_min of the sliver remedy (element.hpp) [-]
   double support_quality = 5e-4;         // a free node with no element this good is a passenger [-]
   int threads = 2;                       // worker threads in step()
+  bool volume_springs = true;            // MassSpring: each element's volume term (fem/element.hpp)
   Preconditioner preconditioner = Preconditioner::TwoLevel;
   // With TwoLevel, CG starts on block-Jacobi and restarts from its iterate with the two-level cycle
   // after this many iterations (0: the cycle from the start, as for any step whose warm start has a

@@ -54,7 +54,7 @@ struct TissueSection {
   int cg_max_iterations = 200;           // CG iterations per step
   int local_rings = 6;                   // rings around a cut solved first (TissueSettings), 0: off
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
-  bool volume_springs = false;           // mass_spring only: add volume-preserving springs
+  bool volume_springs = true;  // mass_spring only: each element's volume term (false: edge springs alone)
 };
 
 // An axis-aligned face of the mesh's rest bounding box.

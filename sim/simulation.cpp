@@ -41,6 +41,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   settings.max_iterations = scenario_.tissue.cg_max_iterations;
   settings.local_rings = scenario_.tissue.local_rings;
   settings.gravity = scenario_.tissue.gravity;
+  settings.volume_springs = scenario_.tissue.volume_springs;
   tissue_ = std::make_unique<TissueModel>(mesh_, std::move(materials), settings);
   for (const NodeId n : select_fixed_nodes(scenario_, mesh_)) tissue_->set_fixed(n);
 }

@@ -180,6 +180,27 @@ TEST_CASE("patch test: an affine field is an equilibrium of the co-rotational mo
   }
 }
 
+TEST_CASE("mass-spring: edge springs and a volume term, which volume_springs = false leaves out") {
+  // A uniform compression by s: every edge shortens by (1 - s) of its length, every element loses
+  // (1 - s^3) of its volume. Springs k = E V / L^2 store 1/2 E V (1 - s)^2 each, six per element;
+  // the volume term kappa / V stores 1/2 kappa V (1 - s^3)^2, kappa = E / (3 (1 - 2 nu)).
+  const Material mat;
+  const double s = 0.97;
+  double energy[2] = {};
+  double volume = 0;
+  for (const bool volume_springs : {false, true}) {
+    TetMesh m = make_box({.max = Vec3(0.03, 0.02, 0.01), .cells = {3, 2, 2}});
+    volume = m.total_rest_volume();
+    TissueModel model(m, {mat}, {.kind = TissueKind::MassSpring, .volume_springs = volume_springs});
+    for (const NodeId n : m.nodes()) m.set_position(n, s * m.rest(n));
+    energy[volume_springs ? 1 : 0] = model.elastic_energy();
+  }
+  const double kappa = mat.young / (3.0 * (1.0 - 2.0 * mat.poisson));
+  CHECK(energy[0] == doctest::Approx(6 * 0.5 * mat.young * volume * (1 - s) * (1 - s)).epsilon(1e-9));
+  CHECK(energy[1] - energy[0] ==
+        doctest::Approx(0.5 * kappa * volume * (1 - s * s * s) * (1 - s * s * s)).epsilon(1e-9));
+}
+
 TEST_CASE("no force and no motion under a rigid rotation without prestress") {
   for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
     TetMesh m = make_box({.max = Vec3(0.03, 0.02, 0.01), .cells = {3, 2, 2}});

@@ -138,6 +138,7 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.tissue.cg_tolerance == 1e-6);
   CHECK(s.tissue.cg_max_iterations == 200);
   CHECK(s.tissue.local_rings == 6);
+  CHECK(s.tissue.volume_springs);
   CHECK(s.tissue.gravity == Vec3(0, 0, -9.81));
   CHECK(s.simulation.visual_rate == 60.0);
   CHECK(s.simulation.cut_recursion_depth == 8);
@@ -166,7 +167,7 @@ TEST_CASE("scenario: every section parsed") {
                            "  rate: 120\n"
                            "  solver: {tolerance: 1.0e-8, max_iterations: 50, local_rings: 2}\n"
                            "  gravity: [0, 0, 0]\n"
-                           "  volume_springs: true\n"
+                           "  volume_springs: false\n"
                            "tool:\n"
                            "  name: blade15\n"
                            "  blade: {back: [0, 0.001, 0.01], tip: [0, 0, 0]}\n"
@@ -187,7 +188,7 @@ TEST_CASE("scenario: every section parsed") {
   CHECK(s.tissue.cg_max_iterations == 50);
   CHECK(s.tissue.local_rings == 2);
   CHECK(s.tissue.gravity == Vec3::Zero());
-  CHECK(s.tissue.volume_springs);
+  CHECK_FALSE(s.tissue.volume_springs);
   CHECK(s.tool.name == "blade15");
   CHECK(s.tool.blade_back == Vec3(0, 0.001, 0.01));
   CHECK(s.tool.cutting_resistance == 200.0);

@@ -158,6 +158,23 @@ TEST_CASE("the blade's sharp side comes from the scenario and turns with the too
                        doctest::Contains("must not be parallel to the blade"), InputError);
 }
 
+TEST_CASE("the scenario's volume_springs reaches the mass-spring model") {
+  double energy[2] = {};
+  for (const bool volume_springs : {false, true}) {
+    std::string text = kScenario;
+    text.replace(text.find("MODEL"), 5,
+                 volume_springs ? "mass_spring" : "mass_spring\n  volume_springs: false");
+    Simulation sim(parse_scenario(text, "springs.yaml", "."));
+    ForceChannel forces;
+    sim.on_sample(ToolSample{.position = Vec3(0, 0, 0.02)});
+    sim.end_frame(1.0 / 60, forces);
+    energy[volume_springs ? 1 : 0] = sim.tissue_steps().back().elastic_energy;
+  }
+  // The patch starts at its mesh positions, larger than its prestressed rest shape (lambda0 1.15)
+  // in every direction: the volume term adds energy.
+  CHECK(energy[1] > 1.5 * energy[0]);
+}
+
 TEST_CASE("tissue steps are marked when a cut changed the mesh since the step before") {
   Simulation sim(scenario("corotational"));
   ForceChannel forces;
