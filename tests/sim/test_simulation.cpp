@@ -54,11 +54,12 @@ Scenario scenario(const std::string& model, int recursion_depth = 0, double cutt
 
 // Random strokes across the patch until a thousand of them changed the mesh; after every frame
 // the tissue's energy stays within 2 % of its settled value (cuts release prestress, and re-meshing
-// may not pump energy in) and nothing is NaN; at the end the mesh invariants hold.
+// may not pump energy in) and nothing is NaN; at the end the mesh invariants hold. The tool does
+// not drag the tissue here: its push does work on it, which the bound does not allow for.
 void random_cuts(int recursion_depth) {
   for (const std::string model : {"corotational", "mass_spring"}) {
     CAPTURE(model);
-    Simulation sim(scenario(model, recursion_depth));
+    Simulation sim(scenario(model, recursion_depth, 0.0));
     ForceChannel forces;
     std::mt19937 rng(20261121);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
