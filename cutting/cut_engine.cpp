@@ -1185,8 +1185,8 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
       stack);
   if (at.is_null()) return std::nullopt;
   // Weights on the corners of the tetrahedron of the original mesh it descends from, at their
-  // current positions; outside them (the original tetrahedron is cut and deformed) the nearest
-  // point's weights: the negative ones clamped, the rest rescaled.
+  // current positions; where p lies outside them (that tetrahedron is cut and deformed) the
+  // negative weights are clamped and the rest rescaled.
   TetLocation out;
   out.original = mesh_.parent(at);
   const auto& v = original_[out.original];
