@@ -1,8 +1,9 @@
 // Collision step cost (DESIGN section 2: O(elements near the blade), never O(mesh)).
 //
 // Boxes of 10 cm with about 10k, 100k and 1M tetrahedra (6 per cube); a 2.3 cm oblique blade makes
-// one 1 ms step at 0.1 m/s (0.1 mm). Also: refit after deformation, full rebuild, and the
-// remove + insert of one tetrahedron the cutter does per subdivision.
+// one 1 ms step at 0.1 m/s (0.1 mm). Also: refit after deformation, full rebuild, the remove +
+// insert of one tetrahedron the cutter does per subdivision, and the point location of the tool's
+// contact (CutEngine::locate) along a blade that has cut 10 mm.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <memory>
 
 #include "cutting/blade_sweep.hpp"
+#include "cutting/cut_engine.hpp"
 #include "cutting/generators.hpp"
 
 using namespace scalpel;
@@ -127,6 +129,32 @@ void BM_RemoveInsert(benchmark::State& state) {
   state.counters["height"] = sweep.tree().height();
 }
 
+// The simulation's contact query per frame (sim/simulation.hpp): points 0.1 mm apart along the
+// blade's edge, after the blade has cut 10 mm through the box: they lie in the tetrahedra it cuts.
+void BM_LocateAlongBlade(benchmark::State& state) {
+  TetMesh m = make_box(
+      {Vec3::Zero(),
+       Vec3::Constant(0.1),
+       {static_cast<int>(state.range(0)), static_cast<int>(state.range(0)), static_cast<int>(state.range(0))},
+       CubeSplit::Six,
+       0});
+  CutEngine cutter(m);
+  cutter.place(blade(0.0403));
+  for (int k = 1; k <= 100; ++k) cutter.step(blade(0.0403 + 1e-4 * k));
+  const BladePose now = blade(0.0503);
+  const int points = static_cast<int>(std::ceil((now.tip - now.back).norm() / 1e-4));
+  int found = 0;
+  for (auto _ : state) {
+    found = 0;
+    for (int k = 0; k < points; ++k)
+      found += cutter.locate(now.back + (k + 0.5) / points * (now.tip - now.back), 2e-4).has_value() ? 1 : 0;
+  }
+  state.SetItemsProcessed(state.iterations() * points);
+  state.counters["tets"] = static_cast<double>(m.tet_count());
+  state.counters["points"] = points;
+  state.counters["in_tissue"] = found;
+}
+
 }  // namespace
 
 BENCHMARK(BM_Sweep)
@@ -142,5 +170,6 @@ BENCHMARK(BM_RefitSmall)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMillisecon
 BENCHMARK(BM_RefitLarge)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Rebuild)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_RemoveInsert)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LocateAlongBlade)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();
