@@ -132,12 +132,7 @@ void BM_RemoveInsert(benchmark::State& state) {
 // The simulation's contact query per frame (sim/simulation.hpp): points 0.1 mm apart along the
 // blade's edge, after the blade has cut 10 mm through the box: they lie in the tetrahedra it cuts.
 void BM_LocateAlongBlade(benchmark::State& state) {
-  TetMesh m = make_box(
-      {Vec3::Zero(),
-       Vec3::Constant(0.1),
-       {static_cast<int>(state.range(0)), static_cast<int>(state.range(0)), static_cast<int>(state.range(0))},
-       CubeSplit::Six,
-       0});
+  TetMesh m = box_mesh(static_cast<int>(state.range(0)));  // a copy: the cutter edits it
   CutEngine cutter(m);
   cutter.place(blade(0.0403));
   for (int k = 1; k <= 100; ++k) cutter.step(blade(0.0403 + 1e-4 * k));

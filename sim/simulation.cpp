@@ -77,14 +77,14 @@ void Simulation::on_sample(const ToolSample& s) {
   if (!added.empty()) tissue_->on_tets_added(added);
   topology_changed_ = topology_changed_ || !c.added_nodes.empty() || !removed.empty() || !added.empty();
   last_ = s;
-  sampled_in_frame_ = true;
   ++samples_;
 }
 
 void Simulation::push_tissue() {
   tissue_->clear_external_forces();
   contact_ = {};
-  if (!sampled_in_frame_ || !frame_start_ || !(last_.t > frame_start_->t)) return;
+  // No sample in this frame: last_ is still frame_start_ (sample times increase strictly).
+  if (!frame_start_ || !(last_.t > frame_start_->t)) return;
   const BladePose now = blade(last_);
   const BladePose before = blade(*frame_start_);
   const double dt = last_.t - frame_start_->t;
@@ -132,7 +132,6 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   forces.publish(model);
   contact_forces_.push_back(contact_.force.norm());
   if (samples_ > 0) frame_start_ = last_;
-  sampled_in_frame_ = false;
 }
 
 }  // namespace scalpel

@@ -102,7 +102,6 @@ class Simulation {
   std::size_t samples_ = 0;
   ToolSample last_;
   std::optional<ToolSample> frame_start_;  // the last sample before this frame
-  bool sampled_in_frame_ = false;
   ToolContact contact_;
   std::vector<double> contact_forces_;
   std::vector<double> cut_seconds_;
