@@ -57,7 +57,9 @@ TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sl
 // Algorithm 1 replaces tr(S) I - S by |tr(G)| I (a damped step: linear convergence, rate 1/3 even
 // for an isotropic stretch); the full solve converges quadratically. It is used when tr(S) I - S is
 // positive definite (any two principal stretches sum to more than zero: no inversion), else the
-// damped step keeps the iteration safe.
+// damped step keeps the iteration safe. A Newton step of w rad leaves about w^3 / 3 (measured for
+// strains up to 0.9): one below 1 mrad ends the iteration 5e-10 rad from R. Warm-started from the
+// last step, where a moving tissue's elements turn by up to a few mrad, that is one step for most.
 void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) {
   if (!q.coeffs().allFinite() || q.norm() < 0.5) q.setIdentity();
   for (int it = 0; it < max_iterations; ++it) {
@@ -75,7 +77,7 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) 
     if (!(w > 1e-15)) break;
     q = q * Eigen::Quaterniond(Eigen::AngleAxisd(w, phi / w));
     q.normalize();
-    if (newton && w < 1e-6) break;  // quadratic convergence: the remaining error is O(w^2)
+    if (newton && w < 1e-3) break;
   }
 }
 
@@ -125,8 +127,9 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
     out.held = out.held || held != stretch;
     const Vec3 n = l > 0 ? Vec3(d / l) : Vec3::UnitX();
     const double t = l > 0 ? std::max(0.0, 1.0 - rest.rest_length[e] / l) : 0.0;
-    out.axial[e] = std::sqrt(rest.spring_k[e] * (1.0 - t)) * n;
-    out.transverse[e] = rest.spring_k[e] * t;
+    const double w = held == stretch ? 1.0 : held / stretch;  // secant weight (element.hpp)
+    out.axial[e] = std::sqrt(w * rest.spring_k[e] * (1.0 - t)) * n;
+    out.transverse[e] = w * rest.spring_k[e] * t;
     const Vec3 fs = rest.spring_k[e] * held * n;
     out.force.col(i) += fs;
     out.force.col(j) -= fs;
@@ -140,6 +143,7 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
   const double dv = e1.dot(e2.cross(e3)) / 6.0 - rest.volume;
   const double held = std::clamp(dv, -kStrainLimit * rest.volume, kStrainLimit * rest.volume);
   out.held = out.held || held != dv;
+  out.volume_weight = held == dv ? 1.0 : held / dv;
   out.force -= rest.volume_k * held * out.volume_grad;
   out.energy = energy + rest.volume_k * held * (dv - 0.5 * held);
 }
