@@ -34,7 +34,7 @@
 // 700 nodes) took the residual of the warm start from about 1 to 0.001-0.004 of the right-hand side
 // (co-rotational; 0.001-0.02 mass-spring), and a step after a cut then needed 2.8 cycle iterations
 // on average instead of 14.2 (mass-spring: 6.4 instead of 16.6); during the 3 mm deep one of
-// bench/bench_fem.cpp a step after a cut needs 5.1 CG iterations (mass-spring 35). Rings stop at
+// bench/bench_fem.cpp a step after a cut needs 5.1 CG iterations (mass-spring 14). Rings stop at
 // local_fraction of the active nodes (small meshes); a change that reaches half of them (the first
 // step, a severed part) is not local and is solved globally at once. The local solve changes the
 // start, not the solution.
