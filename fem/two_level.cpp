@@ -45,30 +45,42 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
                                              std::span<const std::uint8_t> active,
                                              std::vector<double>& partial, int threads) {
   const std::size_t nn = a.size();
-  std::vector<Vec3> r(nn, Vec3::Zero()), z(nn, Vec3::Zero()), p(nn, Vec3::Zero()), q(nn, Vec3::Zero());
-  for (std::size_t i = 0; i < nn; ++i)
-    if (active[i]) r[i] = Vec3(1.0, 0.5 + 0.5 * std::sin(static_cast<double>(i)), -1.0);
-  double rz = 0;
-  for (std::size_t i = 0; i < nn; ++i) {
+  const std::size_t chunks = parallel::chunk_count(nn);
+  if (partial.size() < chunks) partial.resize(chunks, 0.0);
+  std::vector<Vec3> r(nn), z(nn), p(nn), q(nn);
+  // Chunk sums in chunk order, as everywhere in the solver: the estimate does not depend on the
+  // thread count.
+  const auto reduce = [&](auto&& row) {
+    parallel::for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+      double s = 0;
+      for (std::size_t i = begin; i < end; ++i) s += row(i);
+      partial[c] = s;
+    });
+    return parallel::sum(partial, chunks);
+  };
+  double rz = reduce([&](std::size_t i) {
+    r[i] = active[i] ? Vec3(1.0, 0.5 + 0.5 * std::sin(static_cast<double>(i)), -1.0) : Vec3::Zero();
     z[i] = diag_inverse[i] * r[i];
     p[i] = z[i];
-    rz += r[i].dot(z[i]);
-  }
+    return r[i].dot(z[i]);
+  });
   std::vector<double> alpha, beta;
   for (int it = 0; it < 15 && rz > 0; ++it) {
     const double pq = multiply(a, active, p, q, partial, threads);
     if (!(pq > 0)) break;
     const double al = rz / pq;
-    double rz_new = 0;
-    for (std::size_t i = 0; i < nn; ++i) {
+    const double rz_new = reduce([&](std::size_t i) {
       r[i] -= al * q[i];
       z[i] = active[i] ? Vec3(diag_inverse[i] * r[i]) : Vec3::Zero();
-      rz_new += r[i].dot(z[i]);
-    }
+      return r[i].dot(z[i]);
+    });
     alpha.push_back(al);
     beta.push_back(rz_new / rz);
     rz = rz_new;
-    for (std::size_t i = 0; i < nn; ++i) p[i] = z[i] + beta.back() * p[i];
+    const double b = beta.back();
+    parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) p[i] = z[i] + b * p[i];
+    });
   }
   const auto k = static_cast<Eigen::Index>(alpha.size());
   lambda_ = 0;
@@ -214,19 +226,30 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
     }
   });
 
-  // Ac with full 6x6 blocks; a zero diagonal entry (a dropped direction) becomes 1.
+  // Ac with full 6x6 blocks; a zero diagonal entry (a dropped direction) becomes 1. Ac is
+  // symmetric, so block row I read transposed is block column I: the compressed columns are
+  // filled in order, row indices ascending (coarse rows are sorted by aggregate).
   const auto dim = static_cast<Eigen::Index>(6 * na);
-  std::vector<Eigen::Triplet<double>> triplets;
-  for (std::size_t ag = 0; ag < na; ++ag)
-    for (const CoarseBlock& cb : coarse_rows[ag])
-      for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c) {
-          const double v = (cb.aggregate == ag && r == c && cb.block(r, c) == 0.0) ? 1.0 : cb.block(r, c);
-          triplets.emplace_back(static_cast<Eigen::Index>(6 * ag) + r,
-                                static_cast<Eigen::Index>(6 * cb.aggregate) + c, v);
-        }
+  std::size_t blocks = 0;
+  for (const auto& row : coarse_rows) blocks += row.size();
   ac_.resize(dim, dim);
-  ac_.setFromTriplets(triplets.begin(), triplets.end());
+  ac_.resizeNonZeros(static_cast<Eigen::Index>(36 * blocks));
+  using StorageIndex = Eigen::SparseMatrix<double>::StorageIndex;
+  StorageIndex* outer = ac_.outerIndexPtr();
+  StorageIndex* inner = ac_.innerIndexPtr();
+  double* value = ac_.valuePtr();
+  Eigen::Index next = 0;
+  for (std::size_t ag = 0; ag < na; ++ag)
+    for (int c = 0; c < 6; ++c) {
+      outer[6 * static_cast<Eigen::Index>(ag) + c] = static_cast<StorageIndex>(next);
+      for (const CoarseBlock& cb : coarse_rows[ag])
+        for (int r = 0; r < 6; ++r) {
+          const double v = cb.block(c, r);  // Ac(J, I)(r, c) = Ac(I, J)(c, r)
+          inner[next] = static_cast<StorageIndex>(6 * cb.aggregate + static_cast<std::uint32_t>(r));
+          value[next++] = (cb.aggregate == ag && r == c && v == 0.0) ? 1.0 : v;
+        }
+    }
+  outer[dim] = static_cast<StorageIndex>(next);
   ldlt_.compute(ac_);
   rc_.setZero(dim);
   ec_.setZero(dim);
