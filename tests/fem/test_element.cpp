@@ -94,6 +94,13 @@ Mat3 random_stretch(std::mt19937& rng, std::uniform_real_distribution<double>& u
   return s + Mat3::Identity();
 }
 
+// The rotation r turned further by `angle` [rad] about a random axis.
+Eigen::Quaterniond turned(const Mat3& r, double angle, std::mt19937& rng,
+                          std::uniform_real_distribution<double>& u) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, Vec3(u(rng), u(rng), 1).normalized())) *
+         Eigen::Quaterniond(r);
+}
+
 }  // namespace
 
 TEST_CASE("extract_rotation finds the rotation of the polar decomposition") {
@@ -116,9 +123,7 @@ TEST_CASE("extract_rotation converges quadratically from a nearby rotation") {
   for (int k = 0; k < 50; ++k) {
     const Mat3 r = random_rotation(rng);
     const Mat3 s = random_stretch(rng, u);
-    const Eigen::Quaterniond exact(r);
-    Eigen::Quaterniond q =
-        Eigen::Quaterniond(Eigen::AngleAxisd(0.05, Vec3(u(rng), u(rng), 1).normalized())) * exact;
+    Eigen::Quaterniond q = turned(r, 0.05, rng, u);
     extract_rotation(r * s, q, 3);
     CHECK((q.toRotationMatrix() - r).norm() < 1e-12);
   }
@@ -132,17 +137,13 @@ TEST_CASE("extract_rotation from last step's rotation: one Newton step when it m
   std::uniform_real_distribution<double> u(-0.6, 0.6);
   for (int k = 0; k < 200; ++k) {
     const Mat3 r = random_rotation(rng);
-    const Mat3 s = random_stretch(rng, u);
-    const Eigen::Quaterniond exact(r);
-    const double off = k % 2 == 0 ? 0.9e-3 : 0.9e-4;
-    const Eigen::Quaterniond start =
-        Eigen::Quaterniond(Eigen::AngleAxisd(off, Vec3(u(rng), u(rng), 1).normalized())) * exact;
-    Eigen::Quaterniond q = start, one = start;
-    extract_rotation(r * s, q);
-    extract_rotation(r * s, one, 1);
+    const Mat3 f = r * random_stretch(rng, u);
+    Eigen::Quaterniond q = turned(r, k % 2 == 0 ? 0.9e-3 : 0.9e-4, rng, u), one = q;
+    extract_rotation(f, q);
+    extract_rotation(f, one, 1);
     CAPTURE(k);
     CHECK(q.angularDistance(one) == 0.0);
-    CHECK(q.angularDistance(exact) < 5e-10);
+    CHECK(q.angularDistance(Eigen::Quaterniond(r)) < 5e-10);
   }
 }
 
