@@ -1133,13 +1133,11 @@ std::vector<Vec3> CutEngine::cut_points() const {
 std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const {
   // Barycentric weights by volumes: w_i is the volume with p in place of corner i over the whole.
   const auto weights = [&p](const std::array<Vec3, 4>& x) -> std::optional<std::array<double, 4>> {
-    const auto volume = [](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-      return (b - a).cross(c - a).dot(d - a);
-    };
-    const double whole = volume(x[0], x[1], x[2], x[3]);
+    const double whole = signed_volume(x[0], x[1], x[2], x[3]);
     if (!(whole > 0.0)) return std::nullopt;
-    return std::array<double, 4>{volume(p, x[1], x[2], x[3]) / whole, volume(x[0], p, x[2], x[3]) / whole,
-                                 volume(x[0], x[1], p, x[3]) / whole, volume(x[0], x[1], x[2], p) / whole};
+    return std::array<double, 4>{
+        signed_volume(p, x[1], x[2], x[3]) / whole, signed_volume(x[0], p, x[2], x[3]) / whole,
+        signed_volume(x[0], x[1], p, x[3]) / whole, signed_volume(x[0], x[1], x[2], p) / whole};
   };
   const auto inside = [](const std::optional<std::array<double, 4>>& w) {
     constexpr double kSlack = 1e-9;  // a point on a shared face belongs to either side

@@ -19,10 +19,6 @@ std::uint32_t take_slot(std::vector<std::uint32_t>& free_list, std::vector<T>& a
   return static_cast<std::uint32_t>(any_array.size());
 }
 
-double signed_volume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  return (b - a).dot((c - a).cross(d - a)) / 6.0;
-}
-
 // Local face of tet `u` whose vertices are {a, b, c} (any order), or -1.
 int find_face(const std::array<std::uint32_t, 4>& v, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
   for (int f = 0; f < 4; ++f) {

@@ -47,6 +47,11 @@ inline constexpr std::array<std::array<int, 3>, 4> kFaceVertices = {
 inline constexpr std::array<std::array<int, 2>, 6> kEdgeVertices = {
     {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}};
 
+// Volume of the tetrahedron abcd, positive when it is positively oriented [m^3].
+[[nodiscard]] inline double signed_volume(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return (b - a).dot((c - a).cross(d - a)) / 6.0;
+}
+
 // One node created by interpolation: value = sum(weights[i] * parents[i]).
 struct NodeParents {
   std::array<NodeId, 3> parents{};

@@ -10,7 +10,7 @@
 namespace scalpel {
 
 double tet_quality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  const double v = (b - a).dot((c - a).cross(d - a)) / 6.0;
+  const double v = signed_volume(a, b, c, d);
   const double l2 = ((b - a).squaredNorm() + (c - a).squaredNorm() + (d - a).squaredNorm() +
                      (c - b).squaredNorm() + (d - b).squaredNorm() + (d - c).squaredNorm()) /
                     6.0;
