@@ -34,4 +34,16 @@ inline double sum(const std::vector<double>& partial, std::size_t n) {
   return s;
 }
 
+// Sum of row(i) over [0, n): per chunk in index order into partial[chunk] (sized for chunk_count(n)),
+// then the chunks in order. row may also update row i's data.
+template <class Row>
+double reduce(int threads, std::size_t n, std::vector<double>& partial, Row&& row) {
+  for_chunks(threads, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
+    double s = 0;
+    for (std::size_t i = begin; i < end; ++i) s += row(i);
+    partial[c] = s;
+  });
+  return sum(partial, chunk_count(n));
+}
+
 }  // namespace scalpel::parallel

@@ -430,13 +430,8 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
         for (std::size_t b = 0; b < row.cols.size(); ++b)
           if (in_local_[row.cols[b]] == 1) r_[j].noalias() -= row.blocks[b] * dv_[row.cols[b]];
       }
-  std::vector<double>& part = partial_;
-  for_chunks(settings_.threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double rr_c = 0;
-    for (std::size_t i = begin; i < end; ++i) rr_c += r_[i].squaredNorm();
-    part[c] = rr_c;
-  });
-  return sum(part, chunk_count(nn));
+  return parallel::reduce(settings_.threads, nn, partial_,
+                          [&](std::size_t i) { return r_[i].squaredNorm(); });
 }
 
 double TissueModel::elastic_energy() {
@@ -494,12 +489,7 @@ StepStats TissueModel::step(double dt) {
   // Scaled warm start: v = s v0 with s = (b . v0) / (v0 . A v0), the multiple of v0 nearest the
   // solution in the energy norm. Settling motion decays geometrically, so the plain v0 overshoots
   // (after a cut it was a worse guess than zero); s = 1 for steady motion, s = 0 if v0 points away.
-  for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double bv = 0;
-    for (std::size_t i = begin; i < end; ++i) bv += b_[i].dot(v_[i]);
-    part[c] = bv;
-  });
-  const double bv = sum(part, chunks);
+  const double bv = parallel::reduce(threads, nn, part, [&](std::size_t i) { return b_[i].dot(v_[i]); });
   const double scale = (vav > 0 && bv > 0) ? bv / vav : 0.0;
   for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
     double rr = 0, bb = 0;
@@ -547,22 +537,12 @@ StepStats TissueModel::step(double dt) {
   const auto precondition = [&] {
     if (cycle) {
       coarse_.apply(rows_, diag_inverse_, active_, r_, z_, threads);
-      for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        double rz_c = 0;
-        for (std::size_t i = begin; i < end; ++i) rz_c += r_[i].dot(z_[i]);
-        part[c] = rz_c;
-      });
-    } else {
-      for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        double rz_c = 0;
-        for (std::size_t i = begin; i < end; ++i) {
-          z_[i] = diag_inverse_[i] * r_[i];
-          rz_c += r_[i].dot(z_[i]);
-        }
-        part[c] = rz_c;
-      });
+      return parallel::reduce(threads, nn, part, [&](std::size_t i) { return r_[i].dot(z_[i]); });
     }
-    return sum(part, chunks);
+    return parallel::reduce(threads, nn, part, [&](std::size_t i) {
+      z_[i] = diag_inverse_[i] * r_[i];
+      return r_[i].dot(z_[i]);
+    });
   };
 
   int it = 0, cycle_it = 0;
@@ -594,16 +574,11 @@ StepStats TissueModel::step(double dt) {
     const double pq = multiply(p_, q_);
     if (!(pq > 0)) break;  // A is positive definite on the active nodes; a breakdown ends the solve
     const double alpha = rz / pq;
-    for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-      double rr_c = 0;
-      for (std::size_t i = begin; i < end; ++i) {
-        v_[i] += alpha * p_[i];
-        r_[i] -= alpha * q_[i];
-        rr_c += r_[i].squaredNorm();
-      }
-      part[c] = rr_c;
+    rr = parallel::reduce(threads, nn, part, [&](std::size_t i) {
+      v_[i] += alpha * p_[i];
+      r_[i] -= alpha * q_[i];
+      return r_[i].squaredNorm();
     });
-    rr = sum(part, chunks);
     ++it;
     cycle_it += cycle ? 1 : 0;
     if (std::sqrt(rr) <= target) break;

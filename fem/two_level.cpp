@@ -45,20 +45,10 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
                                              std::span<const std::uint8_t> active,
                                              std::vector<double>& partial, int threads) {
   const std::size_t nn = a.size();
-  const std::size_t chunks = parallel::chunk_count(nn);
-  if (partial.size() < chunks) partial.resize(chunks, 0.0);
   std::vector<Vec3> r(nn), z(nn), p(nn), q(nn);
   // Chunk sums in chunk order, as everywhere in the solver: the estimate does not depend on the
   // thread count.
-  const auto reduce = [&](auto&& row) {
-    parallel::for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-      double s = 0;
-      for (std::size_t i = begin; i < end; ++i) s += row(i);
-      partial[c] = s;
-    });
-    return parallel::sum(partial, chunks);
-  };
-  double rz = reduce([&](std::size_t i) {
+  double rz = parallel::reduce(threads, nn, partial, [&](std::size_t i) {
     r[i] = active[i] ? Vec3(1.0, 0.5 + 0.5 * std::sin(static_cast<double>(i)), -1.0) : Vec3::Zero();
     z[i] = diag_inverse[i] * r[i];
     p[i] = z[i];
@@ -69,7 +59,7 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
     const double pq = multiply(a, active, p, q, partial, threads);
     if (!(pq > 0)) break;
     const double al = rz / pq;
-    const double rz_new = reduce([&](std::size_t i) {
+    const double rz_new = parallel::reduce(threads, nn, partial, [&](std::size_t i) {
       r[i] -= al * q[i];
       z[i] = active[i] ? Vec3(diag_inverse[i] * r[i]) : Vec3::Zero();
       return r[i].dot(z[i]);
