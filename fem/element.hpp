@@ -18,7 +18,11 @@
 //   W = sum_e k_e/2 (l_e - L_e)^2 + kappa/(2 V) (vol(x) - V)^2,
 //   k_e = E V / L_e^2 [N/m], kappa = E / (3 (1 - 2 nu)) [Pa].
 // The solver's stiffness clamps the transverse spring term to tension (compressed springs would
-// make it indefinite) and keeps only the Gauss-Newton part of the volume term.
+// make it indefinite) and keeps only the Gauss-Newton part of the volume term. That part,
+// kappa/V g g^T with g = d vol / d x the current face areas, grows with the fourth power of an
+// in-plane stretch: an element the cutter made tens of micrometres across at the crack tip,
+// stretched twenty-fold and flattened as the wound opens, makes its nodes a thousand times
+// stiffer than their neighbours, which slows the solve (README, "Tissue step after a cut").
 //
 // Prestress (DESIGN section 6): the rest shape is scaled by 1/lambda0, i.e. b_a -> lambda0 b_a,
 // V -> V / lambda0^3, L_e -> L_e / lambda0; the mesh's rest positions are left alone.
