@@ -311,7 +311,7 @@ TEST_CASE("beyond the strain limit the mass-spring stiffness is the secant of th
     }
     // The volume term along its gradient g: (kappa/V) w |g|^2 times the volume change, over |g|.
     const Vec12 g = Eigen::Map<const Vec12>(s.volume_grad.data());
-    const double dv = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6 - t.volume;
+    const double dv = signed_volume(x[0], x[1], x[2], x[3]) - t.volume;
     CHECK(t.volume_k * s.volume_weight * g.squaredNorm() * dv / g.norm() ==
           doctest::Approx(t.volume_k * kStrainLimit * t.volume * g.norm()));
     const Eigen::SelfAdjointEigenSolver<Mat12> eig(mass_spring_stiffness(t, s));
