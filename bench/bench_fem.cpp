@@ -6,6 +6,7 @@
 //   ./build/release/bench/bench_fem
 //   ./build/release/bench/bench_fem --benchmark_filter=AfterCut   # medians of 5 repetitions
 //   ./build/release/bench/bench_fem --benchmark_filter=Progressive
+//   ./build/release/bench/bench_fem --benchmark_filter=CoarseFactorisation
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -14,10 +15,15 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
+#include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
+
 #include "cutting/generators.hpp"
+#include "fem/block_cholesky.hpp"
 #include "fem/tissue.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
@@ -293,6 +299,89 @@ tool:
   }
 }
 
+// Factorisation of a coarse operator as the two-level preconditioner builds it (fem/two_level.hpp):
+// dense 6 x 6 blocks, one block row per aggregate, aggregates on an 8 x 8 x 2 grid each coupled to
+// its 8 neighbours in the layer and the one above or below (768 unknowns; the coarse operator of
+// the 20-thousand-tetrahedron slab has 130-170 aggregates and about 9 neighbours per aggregate).
+// Argument: 0 = Eigen's SimplicialLDLT with AMD on the unknowns, 1 = BlockCholesky (fem/
+// block_cholesky.hpp). Counters: analyze_ms (ordering and symbolic factorisation), factorize_ms,
+// solve_ms (one solve, as in each two-level cycle).
+void BM_CoarseFactorisation(benchmark::State& state) {
+  constexpr int nx = 8, ny = 8, nz = 2, kBlock = 6;
+  const auto id = [&](int x, int y, int z) { return (z * ny + y) * nx + x; };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int z = 0; z < nz; ++z)
+    for (int y = 0; y < ny; ++y)
+      for (int x = 0; x < nx; ++x)
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int X = x + dx, Y = y + dy, Z = z + dz;
+              if (X < 0 || Y < 0 || Z < 0 || X >= nx || Y >= ny || Z >= nz) continue;
+              if (dz != 0 && (dx != 0 || dy != 0)) continue;
+              const int i = id(x, y, z), j = id(X, Y, Z);
+              if (j < i) continue;
+              for (int r = 0; r < kBlock; ++r)
+                for (int c = 0; c < kBlock; ++c) {
+                  const double v = (i == j && r == c ? 40.0 : 0.0) + 0.1 * u(rng);
+                  entries.emplace_back(kBlock * i + r, kBlock * j + c, v);
+                  entries.emplace_back(kBlock * j + c, kBlock * i + r, v);
+                }
+            }
+  const int n = kBlock * nx * ny * nz;
+  std::vector<std::vector<BlockCholesky::Entry>> rows(static_cast<std::size_t>(nx * ny * nz));
+  for (const auto& t : entries) {
+    auto& row = rows[static_cast<std::size_t>(t.row() / kBlock)];
+    const auto col = static_cast<std::uint32_t>(t.col() / kBlock);
+    auto e =
+        std::find_if(row.begin(), row.end(), [&](const BlockCholesky::Entry& x) { return x.col == col; });
+    if (e == row.end()) e = row.insert(row.end(), {col, BlockCholesky::Mat6::Zero()});
+    e->block(t.row() % kBlock, t.col() % kBlock) += t.value();
+  }
+  Eigen::SparseMatrix<double> a(n, n);
+  a.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(n);
+  Eigen::VectorXd x(n);
+  double analyze = 0, factorize = 0, solve = 0;
+  using Clock = std::chrono::steady_clock;
+  const auto seconds = [](Clock::time_point from, Clock::time_point to) {
+    return std::chrono::duration<double>(to - from).count();
+  };
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    Clock::time_point t1, t2;
+    if (state.range(0) == 0) {
+      Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt;
+      ldlt.analyzePattern(a);
+      t1 = Clock::now();
+      ldlt.factorize(a);
+      t2 = Clock::now();
+      x = ldlt.solve(b);
+      if (ldlt.info() != Eigen::Success) state.SkipWithError("factorisation failed");
+    } else {
+      BlockCholesky chol;
+      chol.analyze(rows);
+      t1 = Clock::now();
+      if (!chol.factorize(rows)) state.SkipWithError("factorisation failed");
+      t2 = Clock::now();
+      x = b;
+      chol.solve(x);
+    }
+    const auto t3 = Clock::now();
+    analyze += seconds(t0, t1);
+    factorize += seconds(t1, t2);
+    solve += seconds(t2, t3);
+    state.SetIterationTime(seconds(t0, t2));
+  }
+  if ((a * x - b).norm() > 1e-9 * b.norm()) state.SkipWithError("wrong solution");
+  const auto count = static_cast<double>(state.iterations());
+  state.counters["analyze_ms"] = 1e3 * analyze / count;
+  state.counters["factorize_ms"] = 1e3 * factorize / count;
+  state.counters["solve_ms"] = 1e3 * solve / count;
+}
+
 // cells per side: 12 -> 5184, 24 -> 20736, 37 -> 49284 tetrahedra; second argument 0 = FEM,
 // 1 = mass-spring; third (after a cut) the preconditioner, as above.
 BENCHMARK(BM_TissueStep)->ArgsProduct({{12, 24, 37}, {0, 1}})->Unit(benchmark::kMillisecond)->MinTime(2.0);
@@ -312,5 +401,7 @@ BENCHMARK(BM_TissueProgressiveIncision)
     ->Iterations(1);
 
 }  // namespace
+
+BENCHMARK(BM_CoarseFactorisation)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 BENCHMARK_MAIN();

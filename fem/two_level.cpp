@@ -19,15 +19,16 @@ Mat3 cross_matrix(const Vec3& d) {
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-// Adds `value` to the block of `aggregate` in a short list kept in first-seen order.
-template <class Entry, class Block>
-void accumulate(std::vector<Entry>& list, std::uint32_t aggregate, const Block& value) {
+// Adds `value` to the block keyed `key` (the member `Key` of an entry) in a short list kept in
+// first-seen order.
+template <auto Key, class Entry, class Block>
+void accumulate(std::vector<Entry>& list, std::uint32_t key, const Block& value) {
   for (Entry& e : list)
-    if (e.aggregate == aggregate) {
+    if (e.*Key == key) {
       e.block += value;
       return;
     }
-  list.push_back({aggregate, value});
+  list.push_back({key, value});
 }
 
 }  // namespace
@@ -174,8 +175,8 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
         for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
           const std::uint32_t j = a[i].cols[k];
           if (!usable(j) || aggregate_[j] < 0) continue;
-          accumulate(row, static_cast<std::uint32_t>(aggregate_[j]),
-                     Mat36(-w * (diag_inverse[i] * (a[i].blocks[k] * tentative[j]))));
+          accumulate<&Entry::aggregate>(row, static_cast<std::uint32_t>(aggregate_[j]),
+                                        Mat36(-w * (diag_inverse[i] * (a[i].blocks[k] * tentative[j]))));
         }
       std::sort(row.begin(), row.end(),
                 [](const Entry& l, const Entry& r) { return l.aggregate < r.aggregate; });
@@ -195,58 +196,38 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
         const std::uint32_t j = a[i].cols[k];
         if (!usable(j)) continue;
         for (const Entry& e : prolongator_[j])
-          accumulate(ap[i], e.aggregate, Mat36(a[i].blocks[k] * e.block));
+          accumulate<&Entry::aggregate>(ap[i], e.aggregate, Mat36(a[i].blocks[k] * e.block));
       }
     }
   });
-  struct CoarseBlock {
-    std::uint32_t aggregate;
-    Mat6 block;
-  };
-  std::vector<std::vector<CoarseBlock>> coarse_rows(na);
+  std::vector<std::vector<BlockCholesky::Entry>> coarse_rows(na);
   parallel::for_chunks(threads, na, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t ag = begin; ag < end; ++ag) {
-      std::vector<CoarseBlock>& row = coarse_rows[ag];
+      std::vector<BlockCholesky::Entry>& row = coarse_rows[ag];
+      const auto add = [&](std::uint32_t col, const Mat6& value) {
+        accumulate<&BlockCholesky::Entry::col>(row, col, value);
+      };
       for (const Member& m : members_[ag]) {
         const Mat36& pi = prolongator_[m.node][m.entry].block;
-        for (const Entry& e : ap[m.node]) accumulate(row, e.aggregate, Mat6(pi.transpose() * e.block));
+        for (const Entry& e : ap[m.node]) add(e.aggregate, pi.transpose() * e.block);
       }
+      // A dropped direction (zero column of P) gets a unit diagonal: its coarse unknown decouples.
+      add(static_cast<std::uint32_t>(ag), Mat6::Zero());
+      for (BlockCholesky::Entry& e : row)
+        if (e.col == ag)
+          for (int k = 0; k < 6; ++k)
+            if (e.block(k, k) == 0.0) e.block(k, k) = 1.0;
       std::sort(row.begin(), row.end(),
-                [](const CoarseBlock& l, const CoarseBlock& r) { return l.aggregate < r.aggregate; });
+                [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
     }
   });
-
-  // Ac with full 6x6 blocks; a zero diagonal entry (a dropped direction) becomes 1. Ac is
-  // symmetric, so block row I read transposed is block column I: the compressed columns are
-  // filled in order, row indices ascending (coarse rows are sorted by aggregate).
-  const auto dim = static_cast<Eigen::Index>(6 * na);
-  std::size_t blocks = 0;
-  for (const auto& row : coarse_rows) blocks += row.size();
-  ac_.resize(dim, dim);
-  ac_.resizeNonZeros(static_cast<Eigen::Index>(36 * blocks));
-  using StorageIndex = Eigen::SparseMatrix<double>::StorageIndex;
-  StorageIndex* outer = ac_.outerIndexPtr();
-  StorageIndex* inner = ac_.innerIndexPtr();
-  double* value = ac_.valuePtr();
-  Eigen::Index next = 0;
-  for (std::size_t ag = 0; ag < na; ++ag)
-    for (int c = 0; c < 6; ++c) {
-      outer[6 * static_cast<Eigen::Index>(ag) + c] = static_cast<StorageIndex>(next);
-      for (const CoarseBlock& cb : coarse_rows[ag])
-        for (int r = 0; r < 6; ++r) {
-          const double v = cb.block(c, r);  // Ac(J, I)(r, c) = Ac(I, J)(c, r)
-          inner[next] = static_cast<StorageIndex>(6 * cb.aggregate + static_cast<std::uint32_t>(r));
-          value[next++] = (cb.aggregate == ag && r == c && v == 0.0) ? 1.0 : v;
-        }
-    }
-  outer[dim] = static_cast<StorageIndex>(next);
-  ldlt_.compute(ac_);
-  rc_.setZero(dim);
-  ec_.setZero(dim);
+  if (!cholesky_.same_structure(coarse_rows)) cholesky_.analyze(coarse_rows);
+  rc_.setZero(static_cast<Eigen::Index>(6 * na));
+  ec_.setZero(static_cast<Eigen::Index>(6 * na));
   residual_.assign(nn, Vec3::Zero());
   direction_.assign(nn, Vec3::Zero());
   next_.assign(nn, Vec3::Zero());
-  factored_ = na > 0 && lambda_ > 0 && ldlt_.info() == Eigen::Success && (ldlt_.vectorD().array() > 0).all();
+  factored_ = na > 0 && lambda_ > 0 && cholesky_.factorize(coarse_rows);
   return factored_;
 }
 
@@ -329,7 +310,8 @@ void TwoLevelPreconditioner::coarse_correct(std::span<const std::uint8_t> active
       rc_.segment<6>(static_cast<Eigen::Index>(6 * ag)) = s;
     }
   });
-  ec_ = ldlt_.solve(rc_);
+  ec_ = rc_;
+  cholesky_.solve(ec_);
   const std::size_t nn = std::min(z.size(), prolongator_.size());
   parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {

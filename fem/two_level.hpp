@@ -26,7 +26,7 @@
 // iterations instead of 17 (bench_fem AfterCut/24/0/3), and a rebuild costs about 1.5 times as
 // much. The coarse operator is the Galerkin product
 //   Ac = P^T A P  (6 x 6 blocks, one block row per aggregate),
-// factorised by a sparse LDL^T (Eigen SimplicialLDLT, AMD ordering).
+// factorised by a sparse Cholesky factorisation on its blocks (fem/block_cholesky.hpp).
 //
 // Smoother: S = q(D^{-1} A) D^{-1}, the Chebyshev polynomial of degree m (Adams, Brezina, Hu,
 // Tuminaro, "Parallel multigrid smoothing: polynomial versus Gauss-Seidel", J. Comput. Phys. 188,
@@ -59,9 +59,9 @@
 #include <span>
 #include <vector>
 
-#include <Eigen/SparseCholesky>
-#include <Eigen/SparseCore>
+#include <Eigen/Core>
 
+#include "fem/block_cholesky.hpp"
 #include "fem/block_matrix.hpp"
 
 namespace scalpel {
@@ -144,8 +144,7 @@ class TwoLevelPreconditioner {
   std::vector<std::vector<Member>> members_;
   std::vector<Vec3> centre_;
   std::vector<Mat6> modes_;
-  Eigen::SparseMatrix<double> ac_;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt_;
+  BlockCholesky cholesky_;  // of Ac
   Eigen::VectorXd rc_, ec_;
   // Smoother work vectors, by node slot.
   std::vector<Vec3> residual_, direction_, next_;
