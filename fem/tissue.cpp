@@ -511,6 +511,7 @@ StepStats TissueModel::step(double dt) {
   // After a topology change: the local solve first (see tissue.hpp); what it leaves is smooth.
   const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
   if (local) rr = solve_locally(rr, target, st);
+  const std::vector<std::uint32_t> changed = std::move(changed_);
   changed_.clear();
   if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
 
@@ -524,8 +525,10 @@ StepStats TissueModel::step(double dt) {
       coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, threads);
       coarse_stale_ = false;
       st.preconditioner_built = true;
-    } else if (!born_.empty()) {
+    } else if (!changed.empty()) {
       for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+      // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
+      coarse_.split_severed(rows_, active_, changed, mesh_.positions(), threads);
       const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
       coarse_stale_ = static_cast<double>(coarse_.extended()) >
                       settings_.coarse_rebuild_fraction * static_cast<double>(active_count);

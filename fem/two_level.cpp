@@ -18,6 +18,8 @@ Mat3 cross_matrix(const Vec3& d) {
 }
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat36 = TwoLevelPreconditioner::Mat36;
+using Mat6 = TwoLevelPreconditioner::Mat6;
 
 // Adds `value` to the block keyed `key` (the member `Key` of an entry) in a short list kept in
 // first-seen order.
@@ -31,6 +33,36 @@ void accumulate(std::vector<Entry>& list, std::uint32_t key, const Block& value)
   list.push_back({key, value});
 }
 
+// Row i of the rigid modes of an aggregate with centroid c: [ I3 | -[x_i - c]x ].
+Mat36 rigid_row(const Vec3& xi, const Vec3& c) {
+  Mat36 t;
+  t.leftCols<3>().setIdentity();
+  t.rightCols<3>() = -cross_matrix(xi - c);
+  return t;
+}
+
+// Centroid c of the nodes and the map V L^{-1/2} that orthonormalises their rigid modes, from the
+// eigenpairs (L, V) of sum T_i^T T_i; a direction with L < 1e-10 max L keeps a zero column (its
+// coarse unknown decouples).
+std::pair<Vec3, Mat6> rigid_basis(std::span<const std::uint32_t> nodes, std::span<const Vec3> x) {
+  Vec3 c = Vec3::Zero();
+  for (const std::uint32_t i : nodes) c += x[i];
+  c /= static_cast<double>(nodes.size());
+  Mat6 g = Mat6::Zero();
+  for (const std::uint32_t i : nodes) {
+    const Mat36 t = rigid_row(x[i], c);
+    g.noalias() += t.transpose() * t;
+  }
+  const Eigen::SelfAdjointEigenSolver<Mat6> eig(g);
+  const double top = eig.eigenvalues().maxCoeff();
+  Mat6 t = Mat6::Zero();
+  for (int m = 0; m < 6; ++m) {
+    const double l = eig.eigenvalues()(m);
+    if (l > 1e-10 * top) t.col(m) = eig.eigenvectors().col(m) / std::sqrt(l);
+  }
+  return {c, t};
+}
+
 }  // namespace
 
 void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
@@ -38,6 +70,7 @@ void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
   aggregate_.resize(n, -1);
   prolongator_.resize(n);
   for (auto* v : {&residual_, &direction_, &next_}) v->resize(n, Vec3::Zero());
+  seen_.resize(n, 0);
 }
 
 // Largest Ritz value of D^{-1} A from the CG coefficients of block-Jacobi CG (Saad 2003, 6.7.3):
@@ -92,6 +125,7 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   const std::size_t nn = a.size();
   aggregate_.assign(nn, -1);
   prolongator_.assign(nn, {});
+  seen_.assign(nn, 0);
   extended_ = 0;
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
 
@@ -141,23 +175,8 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   centre_.assign(na, Vec3::Zero());
   modes_.assign(na, Mat6::Zero());
   for (std::size_t ag = 0; ag < na; ++ag) {
-    Vec3 c = Vec3::Zero();
-    for (const std::uint32_t i : nodes[ag]) c += x[i];
-    c /= static_cast<double>(nodes[ag].size());
-    Mat6 g = Mat6::Zero();
-    for (const std::uint32_t i : nodes[ag]) {
-      tentative[i].leftCols<3>().setIdentity();
-      tentative[i].rightCols<3>() = -cross_matrix(x[i] - c);
-      g.noalias() += tentative[i].transpose() * tentative[i];
-    }
-    const Eigen::SelfAdjointEigenSolver<Mat6> eig(g);
-    const double top = eig.eigenvalues().maxCoeff();
-    Mat6 t = Mat6::Zero();  // a dropped direction keeps a zero column: its coarse unknown decouples
-    for (int m = 0; m < 6; ++m) {
-      const double l = eig.eigenvalues()(m);
-      if (l > 1e-10 * top) t.col(m) = eig.eigenvectors().col(m) / std::sqrt(l);
-    }
-    for (const std::uint32_t i : nodes[ag]) tentative[i] = (tentative[i] * t).eval();
+    const auto [c, t] = rigid_basis(nodes[ag], x);
+    for (const std::uint32_t i : nodes[ag]) tentative[i] = rigid_row(x[i], c) * t;
     centre_[ag] = c;
     modes_[ag] = t;
   }
@@ -187,6 +206,17 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
     for (std::size_t k = 0; k < prolongator_[i].size(); ++k)
       members_[prolongator_[i][k].aggregate].push_back({i, static_cast<std::uint32_t>(k)});
 
+  residual_.assign(nn, Vec3::Zero());
+  direction_.assign(nn, Vec3::Zero());
+  next_.assign(nn, Vec3::Zero());
+  return galerkin(a, active, threads);
+}
+
+// Ac = P^T A P for the current P and A, and its factorisation.
+bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
+                                      int threads) {
+  const std::size_t nn = a.size(), na = members_.size();
+  const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
   // A P by node rows, then block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i.
   std::vector<std::vector<Entry>> ap(nn);
   parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
@@ -224,11 +254,78 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   if (!cholesky_.same_structure(coarse_rows)) cholesky_.analyze(coarse_rows);
   rc_.setZero(static_cast<Eigen::Index>(6 * na));
   ec_.setZero(static_cast<Eigen::Index>(6 * na));
-  residual_.assign(nn, Vec3::Zero());
-  direction_.assign(nn, Vec3::Zero());
-  next_.assign(nn, Vec3::Zero());
   factored_ = na > 0 && lambda_ > 0 && cholesky_.factorize(coarse_rows);
   return factored_;
+}
+
+std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
+                                                  std::span<const std::uint8_t> active,
+                                                  std::span<const std::uint32_t> nodes,
+                                                  std::span<const Vec3> x, int threads) {
+  if (options_.prolongator_weight > 0 || members_.empty()) return 0;
+  const std::size_t nn = a.size();
+  reserve_nodes(nn);
+  std::vector<std::uint32_t> touched;
+  for (const std::uint32_t i : nodes)
+    if (i < nn && aggregate_[i] >= 0) touched.push_back(static_cast<std::uint32_t>(aggregate_[i]));
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  std::size_t made = 0;
+  std::vector<std::uint32_t> stack, rest;
+  std::vector<std::vector<std::uint32_t>> parts;
+  for (const std::uint32_t ag : touched) {
+    // Connected parts of the active members over the current pattern (members_ in order: the
+    // parts and their numbering do not depend on anything else). seen_ marks the visited ones.
+    parts.clear();
+    rest.clear();
+    for (const Member& m : members_[ag]) {
+      const std::uint32_t s0 = m.node;
+      if (!active[s0]) {
+        rest.push_back(s0);
+        continue;
+      }
+      if (seen_[s0]) continue;
+      parts.emplace_back();
+      stack.assign(1, s0);
+      seen_[s0] = 1;
+      while (!stack.empty()) {
+        const std::uint32_t i = stack.back();
+        stack.pop_back();
+        parts.back().push_back(i);
+        for (const std::uint32_t j : a[i].cols)
+          if (j < nn && active[j] && !seen_[j] && aggregate_[j] == static_cast<std::int32_t>(ag)) {
+            seen_[j] = 1;
+            stack.push_back(j);
+          }
+      }
+    }
+    for (const auto& part : parts)
+      for (const std::uint32_t i : part) seen_[i] = 0;
+    if (parts.size() < 2) continue;
+    parts.front().insert(parts.front().end(), rest.begin(), rest.end());  // inactive: no coarse part
+    for (std::size_t k = 0; k < parts.size(); ++k) {
+      const auto id = k == 0 ? ag : static_cast<std::uint32_t>(members_.size());
+      if (k > 0) {
+        members_.emplace_back();
+        centre_.emplace_back();
+        modes_.emplace_back();
+        ++made;
+      }
+      std::vector<std::uint32_t>& part = parts[k];
+      std::sort(part.begin(), part.end());
+      const auto [c, t] = rigid_basis(part, x);
+      centre_[id] = c;
+      modes_[id] = t;
+      members_[id].clear();
+      for (const std::uint32_t i : part) {
+        aggregate_[i] = static_cast<std::int32_t>(id);
+        prolongator_[i].assign(1, Entry{id, rigid_row(x[i], c) * t});
+        members_[id].push_back({i, 0});
+      }
+    }
+  }
+  if (made > 0) galerkin(a, active, threads);
+  return made;
 }
 
 void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, const Vec3& x) {
@@ -237,10 +334,7 @@ void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, co
   if (aggregate_[node] >= 0) return;  // a reused slot keeps its place
   const auto ag = static_cast<std::uint32_t>(aggregate_[parent]);
   aggregate_[node] = aggregate_[parent];
-  Mat36 b;
-  b.leftCols<3>().setIdentity();
-  b.rightCols<3>() = -cross_matrix(x - centre_[ag]);
-  prolongator_[node].assign(1, Entry{ag, b * modes_[ag]});
+  prolongator_[node].assign(1, Entry{ag, rigid_row(x, centre_[ag]) * modes_[ag]});
   members_[ag].push_back({node, 0});
   ++extended_;
 }

@@ -89,6 +89,13 @@ class TwoLevelPreconditioner {
              std::span<const std::uint8_t> active, std::span<const Vec3> x, std::vector<double>& partial,
              int threads);
 
+  // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
+  // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
+  // nodes at x, and recomputes Ac = P^T A P when it did. Returns the number of aggregates added.
+  // Not with a smoothed prolongator (returns 0). Allocates.
+  std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
+                            std::span<const std::uint32_t> nodes, std::span<const Vec3> x, int threads);
+
   // A node born after build() joins the aggregate of `parent`, with that aggregate's rigid modes
   // evaluated at x. Ac is kept (stale, still positive definite).
   void extend(std::uint32_t node, std::uint32_t parent, const Vec3& x);
@@ -130,6 +137,7 @@ class TwoLevelPreconditioner {
               bool from_zero, int threads);
   void coarse_correct(std::span<const std::uint8_t> active, const std::vector<Vec3>& r, std::vector<Vec3>& z,
                       int threads);
+  bool galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active, int threads);
   void reserve_nodes(std::size_t n);
 
   TwoLevelOptions options_;
@@ -148,6 +156,7 @@ class TwoLevelPreconditioner {
   Eigen::VectorXd rc_, ec_;
   // Smoother work vectors, by node slot.
   std::vector<Vec3> residual_, direction_, next_;
+  std::vector<std::uint8_t> seen_;  // split_severed(): visited nodes (all 0 between calls)
 };
 
 }  // namespace scalpel
