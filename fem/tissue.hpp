@@ -17,8 +17,9 @@
 //
 // Topology changes: the cutter edits the TetMesh and then notifies the model. Nothing is rebuilt
 // globally; at the next step only the rows of the vertices of added or removed tetrahedra are
-// rebuilt (their sparsity pattern and lumped mass), and the nodes a cut created join the coarse
-// aggregate of their first parent (the coarse factorisation is kept: see fem/two_level.hpp). New tetrahedra
+// rebuilt (their sparsity pattern and lumped mass), the nodes a cut created join the coarse
+// aggregate of their first parent (the coarse factorisation is kept) and an aggregate the cut
+// severed is split into its parts (see fem/two_level.hpp). New tetrahedra
 // compute their rest data from their (interpolated) rest vertices and their region's material, and start
 // their rotation from the tetrahedron they descend from (mesh.parent). See fem/element.hpp for the element
 // models, prestress and the sliver remedy.
