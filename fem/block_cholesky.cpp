@@ -38,11 +38,11 @@ void BlockCholesky::analyze(const std::vector<std::vector<Entry>>& rows) {
   graph.setFromTriplets(links.begin(), links.end());
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
   if (n > 0) Eigen::AMDOrdering<int>()(graph, order);
-  original_.resize(n);
+  std::vector<std::uint32_t> original(n);  // the row eliminated p-th
   position_.resize(n);
   for (std::size_t p = 0; p < n; ++p) {
-    original_[p] = static_cast<std::uint32_t>(order.indices()(static_cast<Eigen::Index>(p)));
-    position_[original_[p]] = static_cast<std::uint32_t>(p);
+    original[p] = static_cast<std::uint32_t>(order.indices()(static_cast<Eigen::Index>(p)));
+    position_[original[p]] = static_cast<std::uint32_t>(p);
   }
   // Structure of L by the elimination tree: column j holds the rows of A below the diagonal and
   // those its children pass up; its parent is its first row.
@@ -52,7 +52,7 @@ void BlockCholesky::analyze(const std::vector<std::vector<Entry>>& rows) {
   std::size_t count = 0;
   for (std::uint32_t j = 0; j < n; ++j) {
     std::vector<std::uint32_t>& r = rows_[j];
-    for (const Entry& e : rows[original_[j]])
+    for (const Entry& e : rows[original[j]])
       if (position_[e.col] > j) r.push_back(position_[e.col]);
     r.insert(r.end(), passed[j].begin(), passed[j].end());
     std::vector<std::uint32_t>().swap(passed[j]);

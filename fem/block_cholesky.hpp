@@ -48,13 +48,14 @@ class BlockCholesky {
 
  private:
   std::vector<std::uint32_t> position_;  // block row I is eliminated as column position_[I]
-  std::vector<std::uint32_t> original_;  // inverse of position_
   // Column j of L: the diagonal block at values_[start_[j]], then the blocks of rows_[j] (sorted
   // positions below j) in order.
   std::vector<std::vector<std::uint32_t>> rows_;
   std::vector<std::size_t> start_;
   std::vector<Mat6> values_;
-  std::vector<std::size_t> pattern_;  // per original block row: its block count, for same_structure
+  // The analysed structure, for same_structure(): the sorted block columns of each row of A
+  // (pattern_cols_), row I at [pattern_[I], pattern_[I + 1]).
+  std::vector<std::size_t> pattern_;
   std::vector<std::uint32_t> pattern_cols_;
   mutable Eigen::VectorXd work_;
 };
