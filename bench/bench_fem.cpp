@@ -399,9 +399,8 @@ BENCHMARK(BM_TissueProgressiveIncision)
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->Iterations(1);
+BENCHMARK(BM_CoarseFactorisation)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 }  // namespace
-
-BENCHMARK(BM_CoarseFactorisation)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 BENCHMARK_MAIN();

@@ -52,10 +52,10 @@
 // modes then ties the two sides of the crack together (the smallest eigenvalues of the
 // preconditioned matrix drop, to 0.01-0.02 during a deep incision against 0.035-0.05 with fresh
 // aggregates). split_severed() gives each connected part its own rigid modes and recomputes Ac
-// (3-5 ms, at about one step in ten of a deep incision): during the 3 mm deep incision of bench/bench_fem.cpp
-// a step after a cut then needs 11.6 iterations instead of 14.1 (mass-spring), 4.8 instead of 5.1
-// (co-rotational). A cycle costs 2 m products with A; the smoother's vector updates are fused into
-// those row loops.
+// (3-5 ms, at about one step in ten of a deep incision): during the 3 mm deep incision of
+// bench/bench_fem.cpp a step after a cut then needs 11.6 iterations instead of 14.1 (mass-spring),
+// 4.8 instead of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector
+// updates are fused into those row loops.
 //
 // Everything is deterministic: aggregates are grown in node slot order, every sum has a fixed order
 // and the parallel loops write disjoint data, so results do not depend on the thread count.
