@@ -1440,6 +1440,13 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
       }
       stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
     }
+    // A mid node the blade never crossed takes its face's swept-surface normal from a cut edge
+    // while the face's cut data is still there: along_former_cut() tells surfaces apart by it.
+    for (const std::uint32_t id : ids) {
+      CutNode& n = cut_nodes_[id];
+      if (!kept.count(id) && n.kind == CutNode::Kind::Mid && n.sheet_normal.squaredNorm() == 0)
+        n.sheet_normal = face_sheet_normal(n.key);
+    }
     for (const std::uint32_t id : ids) {
       if (kept.count(id)) continue;
       CutNode& n = cut_nodes_[id];
@@ -1521,17 +1528,21 @@ void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
 }
 
 bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const BladePose& pose) const {
-  // Both ends on the earlier cut surface where it has opened: the edge lies in it (or across a
-  // sliver beside it), and a blade running along that surface would shave off slivers.
+  // Both ends on one earlier cut surface where it has opened: the edge lies in it (or across a
+  // sliver beside it), and a blade running along that surface would shave off slivers. Ends on two
+  // surfaces (the edge runs from one earlier cut to another where they meet) do not count: a new
+  // cut parallel to one of them and near it must still split the edge.
   const auto a = former_.find(e.a), b = former_.find(e.b);
   if (a == former_.end() || b == former_.end()) return false;
   const CutNode &na = cut_nodes_[a->second], &nb = cut_nodes_[b->second];
   if (na.copies.size() < 2 || nb.copies.size() < 2) return false;
+  const Vec3 &ma = na.sheet_normal, &mb = nb.sheet_normal;
+  if (ma.squaredNorm() == 0 || mb.squaredNorm() == 0) return false;  // surface unknown
   const auto& x = coarse_.positions();
-  const Vec3 normal = swept_normal(prev, pose, e.s);
   const double size = (x[e.a] - x[e.b]).norm();
-  return (na.sheet_normal.squaredNorm() > 0 && same_cut(x[e.a], na.sheet_normal, e.point, normal, size)) ||
-         (nb.sheet_normal.squaredNorm() > 0 && same_cut(x[e.b], nb.sheet_normal, e.point, normal, size));
+  if (!same_cut(x[e.a], ma, x[e.b], mb, size) || !same_cut(x[e.b], mb, x[e.a], ma, size)) return false;
+  const Vec3 normal = swept_normal(prev, pose, e.s);
+  return same_cut(x[e.a], ma, e.point, normal, size) || same_cut(x[e.b], mb, e.point, normal, size);
 }
 
 bool CutEngine::sealed(const Key3& key) const {

@@ -265,8 +265,8 @@ class CutEngine {
   // whole. Crossings there are ignored until those units are promoted too.
   bool sealed(const std::array<std::uint32_t, 3>& key) const;
   void seal(std::uint32_t unit, const std::vector<std::uint32_t>& rest);
-  // Whether an edge crossing runs along the opened cut surface at a promoted cut node at one of
-  // the edge's ends (the same surface, by same_cut()): a blade retracing a cut continued one level
+  // Whether an edge crossing runs along an opened cut surface that holds both of the edge's ends,
+  // promoted cut nodes of one surface (by same_cut()): a blade retracing a cut continued one level
   // deeper, which must not cut beside it.
   bool along_former_cut(const EdgeCut& e, const BladePose& prev, const BladePose& pose) const;
   bool same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,

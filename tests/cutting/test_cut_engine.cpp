@@ -482,12 +482,7 @@ TEST_CASE("a cut that starts where an earlier one ends frees the flap between th
   }
 }
 
-// Known failure: the three cuts leave 4 connected pieces instead of 6 at depth bound 8. The test
-// name once held a ';', which split it into two CTest entries that matched no test case, so it
-// never ran under `ctest`; it is expected to fail until the recursive continuation is fixed, and
-// the suite fails once it passes (then drop should_fail).
-TEST_CASE("a third cut goes two levels deep: at the depth bound it falls back and the mesh stays valid" *
-          doctest::should_fail()) {
+TEST_CASE("a third cut goes two levels deep: at the depth bound it falls back and the mesh stays valid") {
   // x = 0.37 and x = 0.3913 along y, y = 0.4151 along x: the third cut runs through the tetrahedra
   // of the first, which the second cut promoted and cut again.
   auto cut = [](CutEngine& cutter, TetMesh& mesh, bool along_y, double at, double offset) {
