@@ -107,6 +107,8 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   Mat3 sigma = 2.0 * rest.mu * e;
   sigma.diagonal().array() += rest.lambda * tr_held;
   out.c.noalias() = r * rest.grad;
+  out.lambda_volume = rest.volume * rest.lambda;
+  out.mu_volume = rest.volume * rest.mu;
   out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
   out.energy = rest.volume * (rest.mu * (2.0 * e.cwiseProduct(eps).sum() - e.squaredNorm()) +
                               0.5 * rest.lambda * tr_held * (2.0 * tr - tr_held));
@@ -143,7 +145,7 @@ void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, Mas
   const double dv = e1.dot(e2.cross(e3)) / 6.0 - rest.volume;
   const double held = std::clamp(dv, -kStrainLimit * rest.volume, kStrainLimit * rest.volume);
   out.held = out.held || held != dv;
-  out.volume_weight = held == dv ? 1.0 : held / dv;
+  out.volume_stiffness = rest.volume_k * (held == dv ? 1.0 : held / dv);
   out.force -= rest.volume_k * held * out.volume_grad;
   out.energy = energy + rest.volume_k * held * (dv - 0.5 * held);
 }
@@ -164,12 +166,12 @@ Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s) {
   return full_matrix([&](int a, int b) { return corotational_block(rest, s, a, b); });
 }
 
-Mat12 mass_spring_stiffness(const TetRest& rest, const MassSpringState& s) {
+Mat12 mass_spring_stiffness(const MassSpringState& s) {
   std::array<Mat3, 4> row;
   Mat12 k;
   for (int a = 0; a < 4; ++a) {
     for (Mat3& b : row) b.setZero();
-    add_mass_spring_row(rest, s, a, 1.0, {&row[0], &row[1], &row[2], &row[3]});
+    add_mass_spring_row(s, a, 1.0, {&row[0], &row[1], &row[2], &row[3]});
     for (int b = 0; b < 4; ++b) k.block<3, 3>(3 * a, 3 * b) = row[static_cast<size_t>(b)];
   }
   return k;

@@ -93,6 +93,7 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations =
 // Per-step state of a co-rotational element: everything the assembly needs.
 struct CorotationalState {
   Mat34 c;        // rotated gradients c_a = R b_a [1/m]
+  double lambda_volume, mu_volume;  // V lambda, V mu of the rest data, for the assembly [N m]
   Mat34 force;    // f_a [N]
   double energy;  // [J]
   bool held;      // a strain is beyond the strain limit
@@ -123,7 +124,7 @@ struct MassSpringState {
   std::array<Vec3, 6> axial;         // a_e [sqrt(N/m)]
   std::array<double, 6> transverse;  // d_e [N/m]
   Mat34 volume_grad;                 // d vol / d x_a [m^2]
-  double volume_weight;              // secant weight of the volume term (see "Strain limit") [-]
+  double volume_stiffness;           // kappa / V times the secant weight (see "Strain limit") [Pa/m^3]
   Mat34 force;                       // [N]
   double energy;                     // [J]
   bool held;                         // a strain is beyond the strain limit
@@ -138,10 +139,10 @@ inline constexpr std::array<std::array<int, 4>, 4> kEdgeOf = {
 // Adds h K_ab of the mass-spring element to *out[b] for b = 0..3 (row a) [N/m]: the volume term
 // h kappa/V g_a g_b^T, minus the spring block a_e a_e^T + d_e I of edge ab off the diagonal and
 // plus the three spring blocks of the edges at a on it. Each block is one fused rank-2 update, as
-// in add_corotational_block: a third of the time of forming the spring block first.
-inline void add_mass_spring_row(const TetRest& rest, const MassSpringState& s, int a, double h,
-                                const std::array<Mat3*, 4>& out) {
-  const Vec3 ga = (h * rest.volume_k * s.volume_weight) * s.volume_grad.col(a);
+// in add_corotational_block: a third of the time of forming the spring block first. The state
+// holds all it needs: the assembly reads no rest data.
+inline void add_mass_spring_row(const MassSpringState& s, int a, double h, const std::array<Mat3*, 4>& out) {
+  const Vec3 ga = (h * s.volume_stiffness) * s.volume_grad.col(a);
   Mat3 diag;
   diag.noalias() = ga * s.volume_grad.col(a).transpose();
   double transverse = 0;
@@ -163,6 +164,6 @@ inline void add_mass_spring_row(const TetRest& rest, const MassSpringState& s, i
 
 // Full 12x12 stiffness from the same blocks the solver assembles (for tests and tools).
 [[nodiscard]] Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s);
-[[nodiscard]] Mat12 mass_spring_stiffness(const TetRest& rest, const MassSpringState& s);
+[[nodiscard]] Mat12 mass_spring_stiffness(const MassSpringState& s);
 
 }  // namespace scalpel

@@ -19,6 +19,7 @@ TissueModel::TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueS
     if (const auto err = validate_material(materials_[r]))
       throw std::invalid_argument("materials[" + std::to_string(r) + "]." + err->field + ": " + err->message);
   if (settings_.threads < 1) settings_.threads = 1;
+  stiffness_factor_.resize(materials_.size());
   grow();
   const std::vector<TetId> tets = mesh_.tets();
   on_tets_added(tets);
@@ -50,6 +51,7 @@ void TissueModel::grow() {
     dirty_.resize(nn, 0);
     external_.resize(nn, Vec3::Zero());
     mass_.resize(nn, 0.0);
+    mass_damping_.resize(nn, 0.0);
     rows_.resize(nn);
     entries_.resize(nn);
     for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_, &t_}) v->resize(nn, Vec3::Zero());
@@ -161,6 +163,7 @@ void TissueModel::rebuild_row(std::uint32_t i) {
   row.cols.clear();
   entries.clear();
   mass_[i] = 0;
+  mass_damping_[i] = 0;
   active_[i] = 0;
   passenger_[i] = 0;
   if (!mesh_.node_slot_alive(i)) {
@@ -191,7 +194,9 @@ void TissueModel::rebuild_row(std::uint32_t i) {
       e.block[static_cast<size_t>(a)] = col_of(n);
     }
     entries.push_back(e);
-    mass_[i] += materials_[static_cast<std::size_t>(tet_region_[t])].density * rest_[t].mass_volume / 4.0;
+    const Material& m = materials_[static_cast<std::size_t>(tet_region_[t])];
+    mass_[i] += m.density * rest_[t].mass_volume / 4.0;
+    mass_damping_[i] += m.damping_mass * m.density * rest_[t].mass_volume / 4.0;
   }
   row.blocks.assign(row.cols.size(), Mat3::Zero());
   const bool free = !fixed_[i] && mass_[i] > 0;
@@ -202,10 +207,13 @@ void TissueModel::rebuild_row(std::uint32_t i) {
 void TissueModel::refresh() {
   grow();
   std::sort(dirty_list_.begin(), dirty_list_.end());
-  for (const std::uint32_t i : dirty_list_) {
-    rebuild_row(i);
-    dirty_[i] = 0;
-  }
+  // Each row is its own: the threads share the rows a cut dirtied (a few hundred to thousands).
+  for_chunks(settings_.threads, dirty_list_.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k) {
+      rebuild_row(dirty_list_[k]);
+      dirty_[dirty_list_[k]] = 0;
+    }
+  });
   const auto middle = static_cast<std::ptrdiff_t>(changed_.size());
   changed_.insert(changed_.end(), dirty_list_.begin(), dirty_list_.end());
   std::inplace_merge(changed_.begin(), changed_.begin() + middle, changed_.end());
@@ -255,6 +263,8 @@ void TissueModel::assemble(double dt) {
   const std::size_t nn = rows_.size();
   const bool corot = settings_.kind == TissueKind::Corotational;
   const auto& vel = mesh_.velocities();
+  for (std::size_t r = 0; r < materials_.size(); ++r)
+    stiffness_factor_[r] = dt * materials_[r].damping_stiffness + dt * dt;
   for_chunks(settings_.threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (!active_[i]) {
@@ -264,28 +274,25 @@ void TissueModel::assemble(double dt) {
       BlockRow& row = rows_[i];
       for (Mat3& blk : row.blocks) blk.setZero();
       Vec3 f = Vec3::Zero();
-      double mass_term = 0;
+      // Per entry only the element's state is read (rest data and mass are per row or region).
       for (const Entry& e : entries_[i]) {
-        const Material& m = materials_[static_cast<std::size_t>(tet_region_[e.tet])];
-        const TetRest& rest = rest_[e.tet];
-        const double h = dt * m.damping_stiffness + dt * dt;
-        mass_term += (1.0 + dt * m.damping_mass) * m.density * rest.mass_volume / 4.0;
+        const double h = stiffness_factor_[static_cast<std::size_t>(tet_region_[e.tet])];
         if (corot) {
           const CorotationalState& s = corot_[e.tet];
           f += s.force.col(e.local);
           const Vec3 ca = s.c.col(e.local);
-          const Vec3 u = (h * rest.volume * rest.lambda) * ca, w = (h * rest.volume * rest.mu) * ca;
+          const Vec3 u = (h * s.lambda_volume) * ca, w = (h * s.mu_volume) * ca;
           for (int b = 0; b < 4; ++b)
             add_corotational_block(row.blocks[e.block[static_cast<size_t>(b)]], u, w, s.c.col(b));
         } else {
           const MassSpringState& s = spring_[e.tet];
           f += s.force.col(e.local);
-          add_mass_spring_row(rest, s, e.local, h,
+          add_mass_spring_row(s, e.local, h,
                               {&row.blocks[e.block[0]], &row.blocks[e.block[1]], &row.blocks[e.block[2]],
                                &row.blocks[e.block[3]]});
         }
       }
-      row.blocks[row.diag].diagonal().array() += mass_term;
+      row.blocks[row.diag].diagonal().array() += mass_[i] + dt * mass_damping_[i];
       // Fixed or massless neighbours have v = 0: their columns drop out.
       for (std::size_t k = 0; k < row.cols.size(); ++k)
         if (!active_[row.cols[k]]) row.blocks[k].setZero();
@@ -305,18 +312,18 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
 // "Iterative Methods for Sparse Linear Systems", 2nd ed., section 10.2): on the skin slab it needs
 // about 19 iterations where block-Jacobi needed 48, whatever the size of the region, and in
 // Eisenstat's form an iteration costs about what a block-Jacobi one does.
-double TissueModel::solve_locally(double rr, double target, StepStats& st) {
+bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, double target, StepStats& st) {
   const std::size_t nn = rows_.size();
   in_local_.assign(nn, 0);
   local_.clear();
-  for (const std::uint32_t i : changed_)
+  for (const std::uint32_t i : changed)
     if (i < nn && active_[i] && !in_local_[i]) {
       in_local_[i] = 1;
       local_.push_back(i);
     }
   const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
   // A change that reaches half of the tissue (the first step, a severed part) is not local.
-  if (local_.empty() || 2 * local_.size() > active_count) return rr;
+  if (local_.empty() || 2 * local_.size() > active_count) return false;
   // Rings are added while the region stays within local_fraction of the active nodes (the first
   // ring always).
   const auto cap = static_cast<std::size_t>(settings_.local_fraction * static_cast<double>(active_count));
@@ -430,8 +437,7 @@ double TissueModel::solve_locally(double rr, double target, StepStats& st) {
         for (std::size_t b = 0; b < row.cols.size(); ++b)
           if (in_local_[row.cols[b]] == 1) r_[j].noalias() -= row.blocks[b] * dv_[row.cols[b]];
       }
-  return parallel::reduce(settings_.threads, nn, partial_,
-                          [&](std::size_t i) { return r_[i].squaredNorm(); });
+  return true;
 }
 
 double TissueModel::elastic_energy() {
@@ -509,32 +515,45 @@ StepStats TissueModel::step(double dt) {
   st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
   const double target = settings_.tolerance * b_norm;
   // After a topology change: the local solve first (see tissue.hpp); what it leaves is smooth.
-  const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
-  if (local) rr = solve_locally(rr, target, st);
-  const std::vector<std::uint32_t> changed = std::move(changed_);
-  changed_.clear();
-  if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
-
   // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
   // a cut created, and rebuilt at the step after it was found stale (too many two-level iterations,
   // or too many extended nodes), so a cut step itself never pays for a rebuild.
+  const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
   const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
-  if (two_level) {
-    if (coarse_stale_) {
-      coarse_.set_options(settings_.two_level);
-      coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, threads);
-      coarse_stale_ = false;
-      st.preconditioner_built = true;
-    } else if (!changed.empty()) {
-      for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
-      // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
-      coarse_.split_severed(rows_, active_, changed, mesh_.positions(), threads);
-      const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
-      coarse_stale_ = static_cast<double>(coarse_.extended()) >
-                      settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
+  const bool update = two_level && !coarse_stale_ && !changed_.empty();
+  const auto update_coarse = [&](int update_threads) {
+    for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+    // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
+    coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), update_threads);
+    const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
+    coarse_stale_ = static_cast<double>(coarse_.extended()) >
+                    settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
+  };
+  bool solved_locally = false;
+  if (local && update && threads > 1) {
+    // The local solve is serial, and it shares no data with the coarse update: one thread each.
+#pragma omp parallel sections num_threads(2)
+    {
+#pragma omp section
+      solved_locally = solve_locally(changed_, target, st);
+#pragma omp section
+      update_coarse(1);
     }
+  } else {
+    if (local) solved_locally = solve_locally(changed_, target, st);
+    if (update) update_coarse(threads);
   }
+  changed_.clear();
   born_.clear();
+  if (solved_locally)
+    rr = parallel::reduce(threads, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
+  if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
+  if (two_level && coarse_stale_ && !update) {
+    coarse_.set_options(settings_.two_level);
+    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, threads);
+    coarse_stale_ = false;
+    st.preconditioner_built = true;
+  }
   // z = B r; returns r . z.
   bool cycle = false;  // the two-level cycle is in use
   const auto precondition = [&] {

@@ -174,8 +174,9 @@ class TissueModel {
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
-  // The local solve around changed_ (see above); returns the new ||b - A v||^2.
-  double solve_locally(double rr, double target, StepStats& st);
+  // The local solve around the changed rows (see above), serial; false if the change is not local.
+  // Leaves r_ current; shares no scratch with the coarse update, which may run beside it.
+  bool solve_locally(std::span<const std::uint32_t> changed, double target, StepStats& st);
 
   TetMesh& mesh_;
   std::vector<Material> materials_;
@@ -196,6 +197,7 @@ class TissueModel {
   std::vector<std::uint8_t> passenger_;  // free, but no element supports it (see above)
   std::vector<Vec3> external_;
   std::vector<double> mass_;
+  std::vector<double> mass_damping_;  // alpha M, lumped [kg/s]
   std::vector<BlockRow> rows_;               // A, one block row per node slot
   std::vector<std::vector<Entry>> entries_;  // per node slot: incident tets, sorted by slot
   TwoLevelPreconditioner coarse_;
@@ -209,6 +211,7 @@ class TissueModel {
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
   std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_, t_;
   std::vector<Mat3> diag_inverse_;
+  std::vector<double> stiffness_factor_;  // per region: dt beta + dt^2, the factor of K in A [s^2]
   std::vector<double> partial_;
 };
 
