@@ -390,13 +390,14 @@ void Parser::tissue(const Value& v, TissueSection& out) const {
   if (const auto x = m.get("rate")) out.rate = positive(*x, 10000.0);
   if (const auto x = m.get("solver")) {
     const Map sm(*this, *x);
-    sm.only({"tolerance", "max_iterations", "local_rings"});
+    sm.only({"tolerance", "max_iterations", "local_rings", "threads"});
     if (const auto t = sm.get("tolerance")) {
       out.cg_tolerance = number(*t);
       check(*t, out.cg_tolerance > 0.0 && out.cg_tolerance < 1.0, "0 < tolerance < 1");
     }
     if (const auto i = sm.get("max_iterations")) out.cg_max_iterations = in_range(*i, integer(*i), 1, 100000);
     if (const auto i = sm.get("local_rings")) out.local_rings = in_range(*i, integer(*i), 0, 64);
+    if (const auto i = sm.get("threads")) out.threads = in_range(*i, integer(*i), 1, 64);
   }
   if (const auto x = m.get("gravity")) out.gravity = vector<3>(*x);
   if (const auto x = m.get("volume_springs")) {

@@ -53,6 +53,7 @@ struct TissueSection {
   double cg_tolerance = 1e-6;            // [-] CG stops at |r| <= tolerance * |b|
   int cg_max_iterations = 200;           // CG iterations per step
   int local_rings = 6;                   // rings around a cut solved first (TissueSettings), 0: off
+  int threads = 2;                       // worker threads of the tissue step
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
   bool volume_springs = true;  // mass_spring only: each element's volume term (false: edge springs alone)
 };

@@ -40,6 +40,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   settings.tolerance = scenario_.tissue.cg_tolerance;
   settings.max_iterations = scenario_.tissue.cg_max_iterations;
   settings.local_rings = scenario_.tissue.local_rings;
+  settings.threads = scenario_.tissue.threads;
   settings.gravity = scenario_.tissue.gravity;
   settings.volume_springs = scenario_.tissue.volume_springs;
   tissue_ = std::make_unique<TissueModel>(mesh_, std::move(materials), settings);

@@ -138,6 +138,7 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.tissue.cg_tolerance == 1e-6);
   CHECK(s.tissue.cg_max_iterations == 200);
   CHECK(s.tissue.local_rings == 6);
+  CHECK(s.tissue.threads == 2);
   CHECK(s.tissue.volume_springs);
   CHECK(s.tissue.gravity == Vec3(0, 0, -9.81));
   CHECK(s.simulation.visual_rate == 60.0);
@@ -165,7 +166,7 @@ TEST_CASE("scenario: every section parsed") {
                            "tissue:\n"
                            "  model: mass_spring\n"
                            "  rate: 120\n"
-                           "  solver: {tolerance: 1.0e-8, max_iterations: 50, local_rings: 2}\n"
+                           "  solver: {tolerance: 1.0e-8, max_iterations: 50, local_rings: 2, threads: 1}\n"
                            "  gravity: [0, 0, 0]\n"
                            "  volume_springs: false\n"
                            "tool:\n"
@@ -187,6 +188,7 @@ TEST_CASE("scenario: every section parsed") {
   CHECK(s.tissue.cg_tolerance == 1e-8);
   CHECK(s.tissue.cg_max_iterations == 50);
   CHECK(s.tissue.local_rings == 2);
+  CHECK(s.tissue.threads == 1);
   CHECK(s.tissue.gravity == Vec3::Zero());
   CHECK_FALSE(s.tissue.volume_springs);
   CHECK(s.tool.name == "blade15");
@@ -266,6 +268,8 @@ TEST_CASE("scenario: each schema error names the file, line, column and key path
       {"unknown device", base_text() + "device: {kind: joystick}\n", 21, 16, "device.kind", "unknown value"},
       {"negative local rings", base_text() + "tissue: {solver: {local_rings: -1}}\n", 21, 32,
        "tissue.solver.local_rings", "out of range"},
+      {"no tissue threads", base_text() + "tissue: {solver: {threads: 0}}\n", 21, 28, "tissue.solver.threads",
+       "out of range"},
       {"haptic rate too low", base_text() + "device:\n  rate: 10\n", 22, 9, "device.rate", "100 <= rate"},
       {"negative recursion depth", base_text() + "simulation: {cut_recursion_depth: -1}\n", 21, 35,
        "simulation.cut_recursion_depth", "out of range"},
