@@ -92,11 +92,11 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations =
 
 // Per-step state of a co-rotational element: everything the assembly needs.
 struct CorotationalState {
-  Mat34 c;        // rotated gradients c_a = R b_a [1/m]
+  Mat34 c;                          // rotated gradients c_a = R b_a [1/m]
   double lambda_volume, mu_volume;  // V lambda, V mu of the rest data, for the assembly [N m]
-  Mat34 force;    // f_a [N]
-  double energy;  // [J]
-  bool held;      // a strain is beyond the strain limit
+  Mat34 force;                      // f_a [N]
+  double energy;                    // [J]
+  bool held;                        // a strain is beyond the strain limit
 };
 
 // Evaluates the element at current positions x; q is the warm start in, the rotation out.

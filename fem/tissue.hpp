@@ -197,7 +197,7 @@ class TissueModel {
   std::vector<std::uint8_t> passenger_;  // free, but no element supports it (see above)
   std::vector<Vec3> external_;
   std::vector<double> mass_;
-  std::vector<double> mass_damping_;  // alpha M, lumped [kg/s]
+  std::vector<double> mass_damping_;         // alpha M, lumped [kg/s]
   std::vector<BlockRow> rows_;               // A, one block row per node slot
   std::vector<std::vector<Entry>> entries_;  // per node slot: incident tets, sorted by slot
   TwoLevelPreconditioner coarse_;
