@@ -650,3 +650,44 @@ TEST_CASE(
       CHECK_FALSE(cutter.locate(Vec3(x0 + 0.05, y, z), 0.04).has_value());
     }
 }
+
+TEST_CASE("a blade back along an opened cut at a slight slant shaves no slivers off it") {
+  // x = 0.37 along y, then y = 0.4151 along x, which continues the first cut one level deeper
+  // (section 6): its cut nodes become corners of units, and edges between them lie in the opened
+  // crack. A third stroke goes back along the first with the blade slanted by 0.05 (about 3
+  // degrees), meeting the first surface along the bottom face: the same surface as far as the mesh
+  // resolves it (CutOptions::same_cut_angle_deg, same_cut_distance). Its crossings of edges lying
+  // in the opened crack are the old surface, not a new one; cut, they shave off a piece of no
+  // volume along the bottom where the blade meets the old surface, severed where it crosses the
+  // second cut. Free fragments of no volume are debris the tissue model cannot condition (DESIGN
+  // section 6).
+  auto stroke = [](CutEngine& cutter, TetMesh& mesh, bool along_y, double at, double slant, double to) {
+    auto pose = [&](double s) {
+      auto p = [&](double z) { return along_y ? Vec3(at + slant * z, s, z) : Vec3(s, at + slant * z, z); };
+      return BladePose{p(1.5), p(-0.5), Vec3::Zero()};
+    };
+    const double from = along_y ? -0.5 : -0.4963;  // samples off the first cut's plane
+    cutter.place(pose(from));
+    const int n = static_cast<int>(std::lround((to - from) / 0.01));
+    for (int k = 1; k <= n; ++k) {
+      cutter.step(pose(from + 0.01 * k));
+      require_valid(mesh, 1.0);
+    }
+  };
+  TetMesh mesh = make_box({.cells = {4, 4, 2}});
+  CutEngine cutter(mesh);
+  stroke(cutter, mesh, true, 0.37, 0.0, 1.05);
+  stroke(cutter, mesh, false, 0.4151, 0.0, 1.05);
+  REQUIRE(connected_components(mesh).count() == 4);
+  REQUIRE(cutter.totals().recursions == 1);
+  stroke(cutter, mesh, true, 0.37, 0.05, 0.6);
+  const auto comps = connected_components(mesh);
+  std::vector<double> v = comps.rest_volume;
+  std::sort(v.begin(), v.end());
+  MESSAGE(comps.count() << " pieces, the smallest " << v[0] << ", " << mesh.tet_count() << " tetrahedra");
+  // The four pieces of the first two cuts, and at most the wedges the slanted blade could sever
+  // between its surface and the first (0.0104 below the second cut): no smaller piece.
+  CHECK(comps.count() <= 6);
+  CHECK(v[0] > 1e-3);
+  CHECK(std::abs(std::accumulate(v.begin(), v.end(), 0.0) - 1.0) < 1e-12);
+}
