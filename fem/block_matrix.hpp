@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "fem/element.hpp"
+#include "fem/parallel.hpp"
 
 namespace scalpel {
 
@@ -26,6 +27,6 @@ struct BlockRow {
 
 // y = A x over the active rows (others get 0), returns x . y. partial holds chunk_count(n) sums.
 double multiply(std::span<const BlockRow> a, std::span<const std::uint8_t> active, const std::vector<Vec3>& x,
-                std::vector<Vec3>& y, std::vector<double>& partial, int threads);
+                std::vector<Vec3>& y, std::vector<double>& partial, parallel::Team& team);
 
 }  // namespace scalpel

@@ -1,30 +1,102 @@
 // Deterministic parallel loops for the tissue solver (DESIGN section 6).
 //
 // Work is split into chunks of a fixed size, independent of the thread count, and per-chunk partial
-// sums are added in chunk order: reductions are bit-identical for any number of threads.
+// sums are added in chunk order: reductions are bit-identical for any number of threads, and for
+// any assignment of chunks to threads.
+//
+// A Team runs the chunks of a loop on the calling thread and its workers. Chunks are claimed one at
+// a time from a shared counter, so a thread the scheduler has taken away (another busy process, the
+// haptic thread) delays the loop by at most the chunk it holds: the others take the rest. Waiting
+// threads spin for at most kSpin, then sleep on a futex (std::atomic::wait): a step's loops follow
+// one another within microseconds, so workers stay awake through a step and sleep between steps,
+// and a waiting thread never holds a core that a descheduled one needs for longer than kSpin.
+// (OpenMP's default policy spins for about 300 thousand polls: with one more busy process on two
+// cores that made a tissue step take up to 0.8 s; config/scenarios/README.md.)
 #pragma once
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace scalpel::parallel {
 
 inline constexpr std::size_t kChunk = 256;
+inline constexpr std::chrono::microseconds kSpin{100};
 
 inline std::size_t chunk_count(std::size_t n) {
   return (n + kChunk - 1) / kChunk;
 }
 
-// f(chunk, begin, end) over [0, n) in chunks of kChunk, on `threads` OpenMP threads.
-template <class F>
-void for_chunks(int threads, std::size_t n, F&& f) {
-  const long chunks = static_cast<long>(chunk_count(n));
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (long c = 0; c < chunks; ++c) {
-    const std::size_t begin = static_cast<std::size_t>(c) * kChunk;
-    f(static_cast<std::size_t>(c), begin, std::min(n, begin + kChunk));
+class Team {
+ public:
+  // threads >= 1: the caller and threads - 1 workers, started here.
+  explicit Team(int threads);
+  ~Team();
+  Team(const Team&) = delete;
+  Team& operator=(const Team&) = delete;
+
+  [[nodiscard]] int size() const { return static_cast<int>(workers_.size()) + 1; }
+
+  // Calls f(c) once for every c in [0, chunks), on the caller and the workers, and returns when all
+  // calls have returned. An exception from f is rethrown here once all calls are done (the first
+  // one, if several threw). Does not allocate. Not reentrant: f must not run jobs on this team.
+  template <class F>
+  void run(std::size_t chunks, F&& f) {
+    if (workers_.empty() || chunks <= 1) {
+      std::exception_ptr error;
+      for (std::size_t c = 0; c < chunks; ++c) {
+        try {
+          f(c);
+        } catch (...) {
+          if (!error) error = std::current_exception();
+        }
+      }
+      if (error) std::rethrow_exception(error);
+      return;
+    }
+    using Fn = std::remove_reference_t<F>;
+    dispatch(
+        chunks, [](void* context, std::size_t c) { (*static_cast<Fn*>(context))(c); },
+        const_cast<void*>(static_cast<const void*>(&f)));
   }
+
+ private:
+  using Call = void (*)(void*, std::size_t);
+  void dispatch(std::size_t chunks, Call call, void* context);
+  void work();
+  // Runs chunks of the job of `generation` until none is left or a newer job is posted.
+  void claim(std::uint32_t generation, Call call, void* context, std::uint32_t chunks);
+
+  // ticket_: the job's generation (high half) and its next unclaimed chunk (low half).
+  // Written by all threads during a job: each on its own cache line.
+  alignas(64) std::atomic<std::uint64_t> ticket_{0};
+  alignas(64) std::atomic<std::uint32_t> done_{0};  // chunks of the current job that have returned
+  std::atomic<bool> caller_sleeping_{false};
+  // Written by the caller when it posts a job.
+  alignas(64) std::atomic<std::uint32_t> generation_{0};  // what sleeping workers wait on
+  std::atomic<Call> call_{nullptr};
+  std::atomic<void*> context_{nullptr};
+  std::atomic<std::uint32_t> chunks_{0};
+  std::atomic<int> sleeping_workers_{0};
+  std::atomic<bool> failed_{false};
+  std::exception_ptr error_;
+  std::atomic<bool> stop_{false};
+  std::vector<std::thread> workers_;
+};
+
+// f(chunk, begin, end) over [0, n) in chunks of kChunk, on the team.
+template <class F>
+void for_chunks(Team& team, std::size_t n, F&& f) {
+  team.run(chunk_count(n), [&](std::size_t c) {
+    const std::size_t begin = c * kChunk;
+    f(c, begin, std::min(n, begin + kChunk));
+  });
 }
 
 // Sum of the first n partials, in order.
@@ -37,8 +109,8 @@ inline double sum(const std::vector<double>& partial, std::size_t n) {
 // Sum of row(i) over [0, n): per chunk in index order into partial[chunk] (sized for chunk_count(n)),
 // then the chunks in order. row may also update row i's data.
 template <class Row>
-double reduce(int threads, std::size_t n, std::vector<double>& partial, Row&& row) {
-  for_chunks(threads, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
+double reduce(Team& team, std::size_t n, std::vector<double>& partial, Row&& row) {
+  for_chunks(team, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
     double s = 0;
     for (std::size_t i = begin; i < end; ++i) s += row(i);
     partial[c] = s;

@@ -208,7 +208,7 @@ void TissueModel::refresh() {
   grow();
   std::sort(dirty_list_.begin(), dirty_list_.end());
   // Each row is its own: the threads share the rows a cut dirtied (a few hundred to thousands).
-  for_chunks(settings_.threads, dirty_list_.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+  for_chunks(team(), dirty_list_.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t k = begin; k < end; ++k) {
       rebuild_row(dirty_list_[k]);
       dirty_[dirty_list_[k]] = 0;
@@ -233,7 +233,7 @@ std::size_t TissueModel::evaluate_elements(double& energy) {
   const std::size_t chunks = chunk_count(nt);
   const auto& pos = mesh_.positions();
   const bool corot = settings_.kind == TissueKind::Corotational;
-  for_chunks(settings_.threads, nt, [&](std::size_t c, std::size_t begin, std::size_t end) {
+  for_chunks(team(), nt, [&](std::size_t c, std::size_t begin, std::size_t end) {
     double e = 0, held = 0;
     std::array<Vec3, 4> x;
     for (std::size_t t = begin; t < end; ++t) {
@@ -265,7 +265,7 @@ void TissueModel::assemble(double dt) {
   const auto& vel = mesh_.velocities();
   for (std::size_t r = 0; r < materials_.size(); ++r)
     stiffness_factor_[r] = dt * materials_[r].damping_stiffness + dt * dt;
-  for_chunks(settings_.threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+  for_chunks(team(), nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (!active_[i]) {
         b_[i].setZero();
@@ -303,7 +303,7 @@ void TissueModel::assemble(double dt) {
 }
 
 double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
-  return scalpel::multiply(rows_, active_, x, y, partial_, settings_.threads);
+  return scalpel::multiply(rows_, active_, x, y, partial_, team());
 }
 
 // CG on the rows of local_ (the nodes within local_rings of a changed row), with v outside them
@@ -468,6 +468,12 @@ std::vector<Vec3> TissueModel::internal_forces() {
   return f;
 }
 
+parallel::Team& TissueModel::team() {
+  const int threads = std::max(settings_.threads, 1);
+  if (!team_ || team_->size() != threads) team_ = std::make_unique<parallel::Team>(threads);
+  return *team_;
+}
+
 StepStats TissueModel::step(double dt) {
   StepStats st;
   const auto fail = [&](const std::string& why) {
@@ -479,7 +485,7 @@ StepStats TissueModel::step(double dt) {
   if (!(dt > 0) || !std::isfinite(dt)) return fail("time step " + std::to_string(dt) + " s is not positive");
   refresh();
   const std::size_t nn = rows_.size();
-  const int threads = settings_.threads;
+  parallel::Team& team = this->team();
 
   st.strain_limited = evaluate_elements(st.elastic_energy);
   if (!std::isfinite(st.elastic_energy))
@@ -495,9 +501,9 @@ StepStats TissueModel::step(double dt) {
   // Scaled warm start: v = s v0 with s = (b . v0) / (v0 . A v0), the multiple of v0 nearest the
   // solution in the energy norm. Settling motion decays geometrically, so the plain v0 overshoots
   // (after a cut it was a worse guess than zero); s = 1 for steady motion, s = 0 if v0 points away.
-  const double bv = parallel::reduce(threads, nn, part, [&](std::size_t i) { return b_[i].dot(v_[i]); });
+  const double bv = parallel::reduce(team, nn, part, [&](std::size_t i) { return b_[i].dot(v_[i]); });
   const double scale = (vav > 0 && bv > 0) ? bv / vav : 0.0;
-  for_chunks(threads, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
+  for_chunks(team, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
     double rr = 0, bb = 0;
     for (std::size_t i = begin; i < end; ++i) {
       v_[i] *= scale;
@@ -521,36 +527,35 @@ StepStats TissueModel::step(double dt) {
   const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
   const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
   const bool update = two_level && !coarse_stale_ && !changed_.empty();
-  const auto update_coarse = [&](int update_threads) {
+  const auto update_coarse = [&](parallel::Team& update_team) {
     for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
     // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
-    coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), update_threads);
+    coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), update_team);
     const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
   };
   bool solved_locally = false;
-  if (local && update && threads > 1) {
+  if (local && update && team.size() > 1) {
     // The local solve is serial, and it shares no data with the coarse update: one thread each.
-#pragma omp parallel sections num_threads(2)
-    {
-#pragma omp section
-      solved_locally = solve_locally(changed_, target, st);
-#pragma omp section
-      update_coarse(1);
-    }
+    team.run(2, [&](std::size_t section) {
+      if (section == 0)
+        solved_locally = solve_locally(changed_, target, st);
+      else
+        update_coarse(serial_);
+    });
   } else {
     if (local) solved_locally = solve_locally(changed_, target, st);
-    if (update) update_coarse(threads);
+    if (update) update_coarse(team);
   }
   changed_.clear();
   born_.clear();
   if (solved_locally)
-    rr = parallel::reduce(threads, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
+    rr = parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
   if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
   if (two_level && coarse_stale_ && !update) {
     coarse_.set_options(settings_.two_level);
-    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, threads);
+    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, team);
     coarse_stale_ = false;
     st.preconditioner_built = true;
   }
@@ -558,10 +563,10 @@ StepStats TissueModel::step(double dt) {
   bool cycle = false;  // the two-level cycle is in use
   const auto precondition = [&] {
     if (cycle) {
-      coarse_.apply(rows_, diag_inverse_, active_, r_, z_, threads);
-      return parallel::reduce(threads, nn, part, [&](std::size_t i) { return r_[i].dot(z_[i]); });
+      coarse_.apply(rows_, diag_inverse_, active_, r_, z_, team);
+      return parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].dot(z_[i]); });
     }
-    return parallel::reduce(threads, nn, part, [&](std::size_t i) {
+    return parallel::reduce(team, nn, part, [&](std::size_t i) {
       z_[i] = diag_inverse_[i] * r_[i];
       return r_[i].dot(z_[i]);
     });
@@ -571,7 +576,7 @@ StepStats TissueModel::step(double dt) {
   double rz = 0;
   const auto restart = [&] {
     rz = precondition();
-    for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) p_[i] = z_[i];
     });
   };
@@ -596,7 +601,7 @@ StepStats TissueModel::step(double dt) {
     const double pq = multiply(p_, q_);
     if (!(pq > 0)) break;  // A is positive definite on the active nodes; a breakdown ends the solve
     const double alpha = rz / pq;
-    rr = parallel::reduce(threads, nn, part, [&](std::size_t i) {
+    rr = parallel::reduce(team, nn, part, [&](std::size_t i) {
       v_[i] += alpha * p_[i];
       r_[i] -= alpha * q_[i];
       return r_[i].squaredNorm();
@@ -607,7 +612,7 @@ StepStats TissueModel::step(double dt) {
     const double rz_new = precondition();
     const double beta = rz_new / rz;
     rz = rz_new;
-    for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) p_[i] = z_[i] + beta * p_[i];
     });
   }

@@ -49,10 +49,12 @@
 // neighbours that carry stiffness (fixed ones count with velocity 0).
 //
 // Thread ownership: a TissueModel and its mesh belong to the simulation thread; calls are not
-// thread-safe. The model uses its own worker threads (OpenMP) inside step() only.
+// thread-safe. The model runs its loops on its own team of settings().threads threads
+// (fem/parallel.hpp), which sleep outside them.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -168,6 +170,8 @@ class TissueModel {
 
   void grow();
   void mark_tet_nodes(std::uint32_t t);
+  // The team of settings_.threads threads (made anew when that setting has changed).
+  parallel::Team& team();
   void refresh();
   void rebuild_row(std::uint32_t i);
   // Forces, stiffness data and energy of every element; returns how many are beyond the strain limit.
@@ -213,6 +217,8 @@ class TissueModel {
   std::vector<Mat3> diag_inverse_;
   std::vector<double> stiffness_factor_;  // per region: dt beta + dt^2, the factor of K in A [s^2]
   std::vector<double> partial_;
+  std::unique_ptr<parallel::Team> team_;
+  parallel::Team serial_{1};  // for the coarse update beside the local solve
 };
 
 }  // namespace scalpel

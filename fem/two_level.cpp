@@ -77,12 +77,12 @@ void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
 // the Lanczos matrix has T(j,j) = 1/alpha_j + beta_{j-1}/alpha_{j-1}, T(j,j+1) = sqrt(beta_j)/alpha_j.
 void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                              std::span<const std::uint8_t> active,
-                                             std::vector<double>& partial, int threads) {
+                                             std::vector<double>& partial, parallel::Team& team) {
   const std::size_t nn = a.size();
   std::vector<Vec3> r(nn), z(nn), p(nn), q(nn);
   // Chunk sums in chunk order, as everywhere in the solver: the estimate does not depend on the
   // thread count.
-  double rz = parallel::reduce(threads, nn, partial, [&](std::size_t i) {
+  double rz = parallel::reduce(team, nn, partial, [&](std::size_t i) {
     r[i] = active[i] ? Vec3(1.0, 0.5 + 0.5 * std::sin(static_cast<double>(i)), -1.0) : Vec3::Zero();
     z[i] = diag_inverse[i] * r[i];
     p[i] = z[i];
@@ -90,10 +90,10 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
   });
   std::vector<double> alpha, beta;
   for (int it = 0; it < 15 && rz > 0; ++it) {
-    const double pq = multiply(a, active, p, q, partial, threads);
+    const double pq = multiply(a, active, p, q, partial, team);
     if (!(pq > 0)) break;
     const double al = rz / pq;
-    const double rz_new = parallel::reduce(threads, nn, partial, [&](std::size_t i) {
+    const double rz_new = parallel::reduce(team, nn, partial, [&](std::size_t i) {
       r[i] -= al * q[i];
       z[i] = active[i] ? Vec3(diag_inverse[i] * r[i]) : Vec3::Zero();
       return r[i].dot(z[i]);
@@ -102,7 +102,7 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
     beta.push_back(rz_new / rz);
     rz = rz_new;
     const double b = beta.back();
-    parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) p[i] = z[i] + b * p[i];
     });
   }
@@ -121,7 +121,7 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
 
 bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                    std::span<const std::uint8_t> active, std::span<const Vec3> x,
-                                   std::vector<double>& partial, int threads) {
+                                   std::vector<double>& partial, parallel::Team& team) {
   const std::size_t nn = a.size();
   aggregate_.assign(nn, -1);
   prolongator_.assign(nn, {});
@@ -181,11 +181,11 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
     modes_[ag] = t;
   }
 
-  estimate_lambda(a, diag_inverse, active, partial, threads);
+  estimate_lambda(a, diag_inverse, active, partial, team);
 
   // Smoothed prolongator, row i: T_i - w D_i^{-1} sum_j A_ij T_j, blocks sorted by aggregate.
   const double w = lambda_ > 0 ? options_.prolongator_weight / lambda_ : 0.0;
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (aggregate_[i] < 0) continue;
       std::vector<Entry>& row = prolongator_[i];
@@ -209,17 +209,17 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   residual_.assign(nn, Vec3::Zero());
   direction_.assign(nn, Vec3::Zero());
   next_.assign(nn, Vec3::Zero());
-  return galerkin(a, active, threads);
+  return galerkin(a, active, team);
 }
 
 // Ac = P^T A P for the current P and A, and its factorisation.
 bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
-                                      int threads) {
+                                      parallel::Team& team) {
   const std::size_t nn = a.size(), na = members_.size();
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
   // A P by node rows, then block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i.
   std::vector<std::vector<Entry>> ap(nn);
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (!active[i]) continue;
       for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
@@ -231,7 +231,7 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
     }
   });
   std::vector<std::vector<BlockCholesky::Entry>> coarse_rows(na);
-  parallel::for_chunks(threads, na, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::for_chunks(team, na, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t ag = begin; ag < end; ++ag) {
       std::vector<BlockCholesky::Entry>& row = coarse_rows[ag];
       const auto add = [&](std::uint32_t col, const Mat6& value) {
@@ -261,7 +261,7 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
 std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const std::uint8_t> active,
                                                   std::span<const std::uint32_t> nodes,
-                                                  std::span<const Vec3> x, int threads) {
+                                                  std::span<const Vec3> x, parallel::Team& team) {
   if (options_.prolongator_weight > 0 || members_.empty()) return 0;
   const std::size_t nn = a.size();
   reserve_nodes(nn);
@@ -324,7 +324,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
       }
     }
   }
-  if (made > 0) galerkin(a, active, threads);
+  if (made > 0) galerkin(a, active, team);
   return made;
 }
 
@@ -344,7 +344,7 @@ void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, co
 // for the coarse correction, so degree m costs m products with A either way.
 void TwoLevelPreconditioner::smooth(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                     std::span<const std::uint8_t> active, const std::vector<Vec3>& r,
-                                    std::vector<Vec3>& z, bool from_zero, int threads) {
+                                    std::vector<Vec3>& z, bool from_zero, parallel::Team& team) {
   const std::size_t nn = a.size();
   const int m = std::max(1, options_.smoothing_degree);
   const double hi = smoothing_upper(), lo = hi / std::max(options_.smoothing_range, 1.5);
@@ -352,7 +352,7 @@ void TwoLevelPreconditioner::smooth(std::span<const BlockRow> a, std::span<const
   std::vector<Vec3>& res = residual_;
   std::vector<Vec3>* d = &direction_;
   std::vector<Vec3>* dn = &next_;
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (!active[i]) {
         res[i].setZero();
@@ -369,14 +369,14 @@ void TwoLevelPreconditioner::smooth(std::span<const BlockRow> a, std::span<const
   for (int k = 1; k <= m; ++k) {
     const bool last = k == m;
     if (last && !from_zero) {
-      parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+      parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
         for (std::size_t i = begin; i < end; ++i) z[i] += (*d)[i];
       });
       break;
     }
     const double rho_next = 1.0 / (2.0 * sigma - rho);
     const double c1 = rho_next * rho, c2 = 2.0 * rho_next / delta;
-    parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
         if (!active[i]) {
           (*dn)[i].setZero();
@@ -393,9 +393,9 @@ void TwoLevelPreconditioner::smooth(std::span<const BlockRow> a, std::span<const
 }
 
 void TwoLevelPreconditioner::coarse_correct(std::span<const std::uint8_t> active, const std::vector<Vec3>& r,
-                                            std::vector<Vec3>& z, int threads) {
+                                            std::vector<Vec3>& z, parallel::Team& team) {
   const std::size_t na = members_.size();
-  parallel::for_chunks(threads, na, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::for_chunks(team, na, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t ag = begin; ag < end; ++ag) {
       Vec6 s = Vec6::Zero();
       for (const Member& m : members_[ag])
@@ -407,7 +407,7 @@ void TwoLevelPreconditioner::coarse_correct(std::span<const std::uint8_t> active
   ec_ = rc_;
   cholesky_.solve(ec_);
   const std::size_t nn = std::min(z.size(), prolongator_.size());
-  parallel::for_chunks(threads, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+  parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (!active[i]) continue;
       for (const Entry& e : prolongator_[i])
@@ -418,12 +418,12 @@ void TwoLevelPreconditioner::coarse_correct(std::span<const std::uint8_t> active
 
 void TwoLevelPreconditioner::apply(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                    std::span<const std::uint8_t> active, const std::vector<Vec3>& r,
-                                   std::vector<Vec3>& z, int threads) {
+                                   std::vector<Vec3>& z, parallel::Team& team) {
   reserve_nodes(a.size());
-  smooth(a, diag_inverse, active, r, z, true, threads);
+  smooth(a, diag_inverse, active, r, z, true, team);
   if (!factored_) return;  // the smoother alone: still symmetric positive definite
-  coarse_correct(active, residual_, z, threads);
-  smooth(a, diag_inverse, active, r, z, false, threads);
+  coarse_correct(active, residual_, z, team);
+  smooth(a, diag_inverse, active, r, z, false, team);
 }
 
 }  // namespace scalpel

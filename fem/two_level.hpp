@@ -94,14 +94,15 @@ class TwoLevelPreconditioner {
   // partial holds the chunk sums of multiply().
   bool build(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
              std::span<const std::uint8_t> active, std::span<const Vec3> x, std::vector<double>& partial,
-             int threads);
+             parallel::Team& team);
 
   // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
   // nodes at x, and recomputes Ac = P^T A P when it did. Returns the number of aggregates added.
   // Not with a smoothed prolongator (returns 0). Allocates.
   std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
-                            std::span<const std::uint32_t> nodes, std::span<const Vec3> x, int threads);
+                            std::span<const std::uint32_t> nodes, std::span<const Vec3> x,
+                            parallel::Team& team);
 
   // A node born after build() joins the aggregate of `parent`, with that aggregate's rigid modes
   // evaluated at x. Ac is kept (stale, still positive definite).
@@ -111,7 +112,7 @@ class TwoLevelPreconditioner {
   // when the node count has grown since the last call.
   void apply(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
              std::span<const std::uint8_t> active, const std::vector<Vec3>& r, std::vector<Vec3>& z,
-             int threads);
+             parallel::Team& team);
 
   // Estimate of lambda_max(D^{-1} A) (a Ritz value: from below) and the upper end of the interval
   // the smoother damps.
@@ -138,13 +139,14 @@ class TwoLevelPreconditioner {
   };
 
   void estimate_lambda(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
-                       std::span<const std::uint8_t> active, std::vector<double>& partial, int threads);
+                       std::span<const std::uint8_t> active, std::vector<double>& partial,
+                       parallel::Team& team);
   void smooth(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
               std::span<const std::uint8_t> active, const std::vector<Vec3>& r, std::vector<Vec3>& z,
-              bool from_zero, int threads);
+              bool from_zero, parallel::Team& team);
   void coarse_correct(std::span<const std::uint8_t> active, const std::vector<Vec3>& r, std::vector<Vec3>& z,
-                      int threads);
-  bool galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active, int threads);
+                      parallel::Team& team);
+  bool galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active, parallel::Team& team);
   void reserve_nodes(std::size_t n);
 
   TwoLevelOptions options_;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include <Eigen/OrderingMethods>
@@ -16,6 +17,14 @@
 using namespace scalpel;
 
 namespace {
+
+// A team of 1 to 4 threads, kept for the whole test run.
+parallel::Team& team(int threads) {
+  static std::array<std::unique_ptr<parallel::Team>, 5> teams;
+  auto& t = teams.at(static_cast<std::size_t>(threads));
+  if (!t) t = std::make_unique<parallel::Team>(threads);
+  return *t;
+}
 
 // Room for the per-chunk sums of multiply() (chunks of 256 rows).
 std::vector<double> partials(std::size_t n) {
@@ -106,11 +115,11 @@ struct Cycle {
   std::vector<double> partial;
   Cycle(const System& s, int threads, TwoLevelOptions options = {})
       : pre(options), partial(partials(s.a.size())) {
-    REQUIRE(pre.build(s.a, s.diag_inverse, s.active, s.mesh.positions(), partial, threads));
+    REQUIRE(pre.build(s.a, s.diag_inverse, s.active, s.mesh.positions(), partial, team(threads)));
   }
   std::vector<Vec3> apply(const System& s, const std::vector<Vec3>& r, int threads) {
     std::vector<Vec3> z(r.size(), Vec3::Zero());
-    pre.apply(s.a, s.diag_inverse, s.active, r, z, threads);
+    pre.apply(s.a, s.diag_inverse, s.active, r, z, team(threads));
     return z;
   }
 };
@@ -125,7 +134,7 @@ double lambda_max(const System& s) {
   std::vector<double> partial = partials(u.size());
   double lambda = 0;
   for (int it = 0; it < 400; ++it) {
-    multiply(s.a, s.active, u, w, partial, 1);
+    multiply(s.a, s.active, u, w, partial, team(1));
     double uu = 0, wn = 0;
     for (std::size_t i = 0; i < u.size(); ++i) {
       w[i] = s.diag_inverse[i] * w[i];
@@ -149,7 +158,7 @@ int pcg(const System& s, const std::vector<Vec3>& b, Precondition precondition) 
   const double target = 1e-6 * std::sqrt(dot(b, b));
   int it = 0;
   while (std::sqrt(dot(r, r)) > target && it < 2000) {
-    const double pq = multiply(s.a, s.active, p, q, partial, 1);
+    const double pq = multiply(s.a, s.active, p, q, partial, team(1));
     const double alpha = rz / pq;
     for (std::size_t i = 0; i < n; ++i) {
       v[i] += alpha * p[i];
@@ -215,11 +224,11 @@ TEST_CASE("two-level: the coarse correction is exact on the coarse space") {
   for (const NodeId n : s.mesh.nodes())
     if (s.active[n.index]) x[n.index] = Vec3(0, 0, 1) + Vec3(0.3, 0, 0).cross(s.mesh.rest(n));  // smooth
   std::vector<double> partial = partials(s.a.size());
-  const double xax = multiply(s.a, s.active, x, r, partial, 1);
+  const double xax = multiply(s.a, s.active, x, r, partial, team(1));
   const std::vector<Vec3> z = c.apply(s, r, 1);
   std::vector<Vec3> e(x.size()), ae(x.size());
   for (std::size_t i = 0; i < x.size(); ++i) e[i] = x[i] - z[i];
-  const double eae = multiply(s.a, s.active, e, ae, partial, 1);
+  const double eae = multiply(s.a, s.active, e, ae, partial, team(1));
   CHECK(eae < 0.05 * xax);
 }
 
@@ -299,7 +308,7 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
   Cycle split(s, 1), kept(s, 1);
   REQUIRE(straddling(split.pre) > 0);
   const std::size_t before = split.pre.aggregate_count();
-  const std::size_t made = split.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), 1);
+  const std::size_t made = split.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1));
   CHECK(made > 0);
   CHECK(split.pre.aggregate_count() == before + made);
   CHECK(straddling(split.pre) == 0);
@@ -315,9 +324,9 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
   CAPTURE(without);
   CHECK(with_split < without);
   // Nothing left to split; a smoothed prolongator is left alone.
-  CHECK(split.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), 1) == 0);
+  CHECK(split.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1)) == 0);
   Cycle smoothed(s, 1, kSmoothed);
-  CHECK(smoothed.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), 1) == 0);
+  CHECK(smoothed.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1)) == 0);
 }
 
 TEST_CASE("two-level: the cycle is bit-identical for one and two threads") {

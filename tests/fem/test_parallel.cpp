@@ -1,0 +1,108 @@
+#include <doctest/doctest.h>
+
+#include <atomic>
+#include <chrono>
+#include <numeric>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "fem/parallel.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+// Calls of each chunk of one run.
+struct Tally {
+  std::vector<std::atomic<int>> calls;
+  explicit Tally(std::size_t n) : calls(n) {}
+};
+
+// Computes for about `d` on this thread: long enough for idle workers to fall asleep.
+void busy_for(std::chrono::microseconds d) {
+  const auto end = std::chrono::steady_clock::now() + d;
+  volatile double x = 1;
+  while (std::chrono::steady_clock::now() < end) x = x * 1.0000001;
+}
+
+}  // namespace
+
+TEST_CASE("parallel team: every chunk runs exactly once, for 1 to 4 threads") {
+  for (const int threads : {1, 2, 3, 4}) {
+    parallel::Team team(threads);
+    CHECK(team.size() == threads);
+    for (const std::size_t n : {0u, 1u, 2u, 3u, 7u, 64u, 1000u}) {
+      Tally tally(n);
+      team.run(n, [&](std::size_t c) { tally.calls[c].fetch_add(1); });
+      for (std::size_t c = 0; c < n; ++c) CHECK(tally.calls[c].load() == 1);
+    }
+  }
+}
+
+TEST_CASE("parallel team: thousands of short jobs in a row, and jobs after the workers slept") {
+  parallel::Team team(2);
+  std::vector<std::uint64_t> out(40);
+  std::uint64_t expected = 0, got = 0;
+  for (std::uint64_t job = 0; job < 20000; ++job) {
+    team.run(out.size(), [&](std::size_t c) { out[c] = job * 1000 + c; });
+    for (std::size_t c = 0; c < out.size(); ++c) {
+      expected += job * 1000 + c;
+      got += out[c];
+    }
+    // Now and then the workers run out of spin and sleep; the next job must wake them.
+    if (job % 2000 == 0) busy_for(std::chrono::microseconds(2000));
+  }
+  CHECK(got == expected);
+}
+
+TEST_CASE("parallel team: the workers take part in a long job") {
+  // A chunk that waits until another thread has started a chunk can only finish if a worker runs
+  // one: with one thread the job would never end, so the test is bounded by the first chunk's wait.
+  parallel::Team team(2);
+  std::atomic<int> started{0};
+  std::vector<std::thread::id> by(2);
+  team.run(2, [&](std::size_t c) {
+    by[c] = std::this_thread::get_id();
+    started.fetch_add(1);
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (started.load() < 2 && std::chrono::steady_clock::now() < give_up) std::this_thread::yield();
+  });
+  CHECK(started.load() == 2);
+  CHECK(by[0] != by[1]);
+}
+
+TEST_CASE("parallel team: an exception from a chunk reaches the caller after every chunk returned") {
+  for (const int threads : {1, 2}) {
+    parallel::Team team(threads);
+    Tally tally(100);
+    CHECK_THROWS_WITH_AS(team.run(100,
+                                  [&](std::size_t c) {
+                                    tally.calls[c].fetch_add(1);
+                                    if (c == 37) throw std::runtime_error("chunk 37");
+                                  }),
+                         "chunk 37", std::runtime_error);
+    int total = 0;
+    for (std::size_t c = 0; c < 100; ++c) total += tally.calls[c].load();
+    CHECK(total == 100);
+    // The team is usable afterwards.
+    std::atomic<int> after{0};
+    team.run(10, [&](std::size_t) { after.fetch_add(1); });
+    CHECK(after.load() == 10);
+  }
+}
+
+TEST_CASE("parallel team: reductions are bit-identical for any thread count") {
+  std::vector<double> x(100000);
+  for (std::size_t i = 0; i < x.size(); ++i) x[i] = 1.0 / static_cast<double>(i + 1);
+  std::vector<double> partial(parallel::chunk_count(x.size()));
+  std::vector<double> sums;
+  for (const int threads : {1, 2, 3}) {
+    parallel::Team team(threads);
+    for (int repeat = 0; repeat < 20; ++repeat)
+      sums.push_back(parallel::reduce(team, x.size(), partial, [&](std::size_t i) { return x[i]; }));
+  }
+  for (const double s : sums) CHECK(s == sums.front());
+  // Not the sum in plain index order: the chunking is what makes it independent of the threads.
+  CHECK(sums.front() == doctest::Approx(std::accumulate(x.begin(), x.end(), 0.0)).epsilon(1e-12));
+}
