@@ -162,8 +162,8 @@ Mat12 full_matrix(Block block) {
 
 }  // namespace
 
-Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s) {
-  return full_matrix([&](int a, int b) { return corotational_block(rest, s, a, b); });
+Mat12 corotational_stiffness(const CorotationalState& s) {
+  return full_matrix([&](int a, int b) { return corotational_block(s, a, b); });
 }
 
 Mat12 mass_spring_stiffness(const MassSpringState& s) {

@@ -110,11 +110,11 @@ inline void add_corotational_block(Mat3& k, const Vec3& u, const Vec3& w, const 
   k.diagonal().array() += w.dot(cb);
 }
 
-// K_ab of the co-rotational element [N/m].
-[[nodiscard]] inline Mat3 corotational_block(const TetRest& rest, const CorotationalState& s, int a, int b) {
+// K_ab of the co-rotational element [N/m], from the state as the assembly reads it.
+[[nodiscard]] inline Mat3 corotational_block(const CorotationalState& s, int a, int b) {
   const Vec3 ca = s.c.col(a);
   Mat3 k = Mat3::Zero();
-  add_corotational_block(k, (rest.volume * rest.lambda) * ca, (rest.volume * rest.mu) * ca, s.c.col(b));
+  add_corotational_block(k, s.lambda_volume * ca, s.mu_volume * ca, s.c.col(b));
   return k;
 }
 
@@ -163,7 +163,7 @@ inline void add_mass_spring_row(const MassSpringState& s, int a, double h, const
 }
 
 // Full 12x12 stiffness from the same blocks the solver assembles (for tests and tools).
-[[nodiscard]] Mat12 corotational_stiffness(const TetRest& rest, const CorotationalState& s);
+[[nodiscard]] Mat12 corotational_stiffness(const CorotationalState& s);
 [[nodiscard]] Mat12 mass_spring_stiffness(const MassSpringState& s);
 
 }  // namespace scalpel

@@ -312,7 +312,8 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
 // "Iterative Methods for Sparse Linear Systems", 2nd ed., section 10.2): on the skin slab it needs
 // about 19 iterations where block-Jacobi needed 48, whatever the size of the region, and in
 // Eisenstat's form an iteration costs about what a block-Jacobi one does.
-bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, double target, StepStats& st) {
+bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, std::size_t active_count,
+                                double target, StepStats& st) {
   const std::size_t nn = rows_.size();
   in_local_.assign(nn, 0);
   local_.clear();
@@ -321,7 +322,6 @@ bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, double t
       in_local_[i] = 1;
       local_.push_back(i);
     }
-  const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
   // A change that reaches half of the tissue (the first step, a severed part) is not local.
   if (local_.empty() || 2 * local_.size() > active_count) return false;
   // Rings are added while the region stays within local_fraction of the active nodes (the first
@@ -527,11 +527,12 @@ StepStats TissueModel::step(double dt) {
   const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
   const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
   const bool update = two_level && !coarse_stale_ && !changed_.empty();
+  const auto active_count =
+      (local || update) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
   const auto update_coarse = [&](parallel::Team& update_team) {
     for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
     // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
     coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), update_team);
-    const auto active_count = static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1));
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
   };
@@ -540,12 +541,12 @@ StepStats TissueModel::step(double dt) {
     // The local solve is serial, and it shares no data with the coarse update: one thread each.
     team.run(2, [&](std::size_t section) {
       if (section == 0)
-        solved_locally = solve_locally(changed_, target, st);
+        solved_locally = solve_locally(changed_, active_count, target, st);
       else
         update_coarse(serial_);
     });
   } else {
-    if (local) solved_locally = solve_locally(changed_, target, st);
+    if (local) solved_locally = solve_locally(changed_, active_count, target, st);
     if (update) update_coarse(team);
   }
   changed_.clear();

@@ -179,8 +179,10 @@ class TissueModel {
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
   // The local solve around the changed rows (see above), serial; false if the change is not local.
-  // Leaves r_ current; shares no scratch with the coarse update, which may run beside it.
-  bool solve_locally(std::span<const std::uint32_t> changed, double target, StepStats& st);
+  // active_count: the active nodes, which set its size and iteration caps. Leaves r_ current; shares no
+  // scratch with the coarse update, which may run beside it.
+  bool solve_locally(std::span<const std::uint32_t> changed, std::size_t active_count, double target,
+                     StepStats& st);
 
   TetMesh& mesh_;
   std::vector<Material> materials_;

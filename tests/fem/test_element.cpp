@@ -58,7 +58,7 @@ Eval evaluate(TissueKind kind, const TetRest& rest, const X4& x) {
     Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
     CorotationalState s;
     evaluate_corotational(rest, x, q, s);
-    return {s.energy, Eigen::Map<const Vec12>(s.force.data()), corotational_stiffness(rest, s)};
+    return {s.energy, Eigen::Map<const Vec12>(s.force.data()), corotational_stiffness(s)};
   }
   MassSpringState s;
   evaluate_mass_spring(rest, x, s);

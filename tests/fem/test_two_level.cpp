@@ -77,7 +77,7 @@ System make_system(std::array<int, 3> cells, double stiffness_scale = 1.0) {
         const auto k =
             std::find(row.cols.begin(), row.cols.end(), v[static_cast<size_t>(b)]) - row.cols.begin();
         if (s.active[v[static_cast<size_t>(b)]])
-          row.blocks[static_cast<std::size_t>(k)] += h * corotational_block(rest, st, p, b);
+          row.blocks[static_cast<std::size_t>(k)] += h * corotational_block(st, p, b);
       }
     }
   }
