@@ -25,10 +25,10 @@ bool spin_until(Done done) {
 
 }  // namespace
 
-Team::Team(int threads) {
+Team::Team(int threads) : segments_(static_cast<std::size_t>(std::max(threads, 1))) {
   const int workers = std::max(threads, 1) - 1;
   workers_.reserve(static_cast<std::size_t>(workers));
-  for (int w = 0; w < workers; ++w) workers_.emplace_back([this] { work(); });
+  for (int w = 1; w <= workers; ++w) workers_.emplace_back([this, w] { work(w); });
 }
 
 Team::~Team() {
@@ -38,24 +38,27 @@ Team::~Team() {
   for (std::thread& t : workers_) t.join();
 }
 
-// The fields of a job are written before its ticket is published (release). A thread that read them
-// after an older ticket may see a newer job's fields, but then its claim on the older ticket fails:
-// the caller writes a job only after every chunk of the last one has returned.
+// A job's fields and segments are written before its generation is published (release). A thread
+// that read them for an older generation may see a newer job's fields, but then its claim on the
+// older generation fails: the caller posts a job only after every chunk of the last one returned.
 void Team::dispatch(std::size_t chunks, Call call, void* context) {
   const auto n = static_cast<std::uint32_t>(chunks);
-  const auto generation = static_cast<std::uint32_t>(ticket_.load(std::memory_order_relaxed) >> 32) + 1;
+  const auto size = static_cast<std::uint64_t>(segments_.size());
+  const std::uint32_t generation = generation_.load(std::memory_order_relaxed) + 1;
   call_.store(call, std::memory_order_relaxed);
   context_.store(context, std::memory_order_relaxed);
   chunks_.store(n, std::memory_order_relaxed);
   done_.store(0, std::memory_order_relaxed);
   failed_.store(false, std::memory_order_relaxed);
   error_ = nullptr;
-  ticket_.store(static_cast<std::uint64_t>(generation) << 32, std::memory_order_release);
+  for (std::uint64_t s = 0; s < size; ++s)
+    segments_[s].next.store((static_cast<std::uint64_t>(generation) << 32) | (s * n / size),
+                            std::memory_order_relaxed);
   // Sleeping workers are woken; a worker about to sleep sees the new generation (both seq_cst).
   generation_.store(generation, std::memory_order_seq_cst);
   if (sleeping_workers_.load(std::memory_order_seq_cst) > 0) generation_.notify_all();
 
-  claim(generation, call, context, n);
+  claim(0, generation, call, context, n);
   // Only chunks another thread holds are left: spin, then sleep until the last one returns.
   if (!spin_until([&] { return done_.load(std::memory_order_acquire) == n; })) {
     caller_sleeping_.store(true, std::memory_order_seq_cst);
@@ -66,32 +69,42 @@ void Team::dispatch(std::size_t chunks, Call call, void* context) {
   if (failed_.load(std::memory_order_acquire)) std::rethrow_exception(error_);
 }
 
-// Guided self-scheduling (Polychronopoulos & Kuck, IEEE Trans. Comput. 36, 1987): a claim takes a
-// 1 / (2 size) share of the chunks left, so a loop costs a few claims and the last ones are small.
-void Team::claim(std::uint32_t generation, Call call, void* context, std::uint32_t chunks) {
-  const auto share = static_cast<std::uint32_t>(2 * size());
-  std::uint64_t t = ticket_.load(std::memory_order_acquire);
-  while (static_cast<std::uint32_t>(t >> 32) == generation && static_cast<std::uint32_t>(t) < chunks) {
-    const auto first = static_cast<std::uint32_t>(t);
-    const std::uint32_t take = std::max<std::uint32_t>(1, (chunks - first) / share);
-    if (!ticket_.compare_exchange_weak(t, t + take, std::memory_order_acq_rel, std::memory_order_acquire))
-      continue;  // t now holds the current ticket
-    for (std::uint32_t c = first; c < first + take; ++c) {
+void Team::claim(int self, std::uint32_t generation, Call call, void* context, std::uint32_t chunks) {
+  const auto size = static_cast<std::uint64_t>(segments_.size());
+  std::uint32_t ran = 0;
+  bool current = true;  // the job is still the one of `generation`
+  for (std::uint64_t k = 0; k < size && current; ++k) {
+    const std::uint64_t s = (static_cast<std::uint64_t>(self) + k) % size;
+    const auto end = static_cast<std::uint32_t>((s + 1) * chunks / size);
+    std::atomic<std::uint64_t>& next = segments_[s].next;
+    std::uint64_t t = next.load(std::memory_order_acquire);
+    for (;;) {
+      if (static_cast<std::uint32_t>(t >> 32) != generation) {
+        current = false;
+        break;
+      }
+      const auto c = static_cast<std::uint32_t>(t);
+      if (c >= end) break;
+      if (!next.compare_exchange_weak(t, t + 1, std::memory_order_acq_rel, std::memory_order_acquire))
+        continue;  // t now holds the segment's current value
       try {
         call(context, c);
       } catch (...) {
         if (!failed_.exchange(true, std::memory_order_relaxed)) error_ = std::current_exception();
       }
+      ++ran;
+      t = next.load(std::memory_order_acquire);
     }
-    // The last chunk wakes the caller if it sleeps (seq_cst against its flag and its check).
-    if (done_.fetch_add(take, std::memory_order_seq_cst) + take == chunks &&
-        caller_sleeping_.load(std::memory_order_seq_cst))
-      done_.notify_one();
-    t = ticket_.load(std::memory_order_acquire);
   }
+  // A thread that ran chunks of this job reports them before the caller can post another, so the
+  // report always counts for the job it ran. The last one wakes the caller if it sleeps (seq_cst
+  // against its flag and its check).
+  if (ran > 0 && done_.fetch_add(ran, std::memory_order_seq_cst) + ran == chunks &&
+      caller_sleeping_.load(std::memory_order_seq_cst))
+    done_.notify_one();
 }
 
-void Team::work() {
+void Team::work(int self) {
   std::uint32_t seen = 0;
   for (;;) {
     if (!spin_until([&] { return generation_.load(std::memory_order_acquire) != seen; })) {
@@ -102,9 +115,8 @@ void Team::work() {
     }
     if (stop_.load(std::memory_order_acquire)) return;
     seen = generation_.load(std::memory_order_acquire);
-    const std::uint64_t t = ticket_.load(std::memory_order_acquire);
-    claim(static_cast<std::uint32_t>(t >> 32), call_.load(std::memory_order_relaxed),
-          context_.load(std::memory_order_relaxed), chunks_.load(std::memory_order_relaxed));
+    claim(self, seen, call_.load(std::memory_order_relaxed), context_.load(std::memory_order_relaxed),
+          chunks_.load(std::memory_order_relaxed));
   }
 }
 

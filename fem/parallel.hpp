@@ -4,9 +4,11 @@
 // sums are added in chunk order: reductions are bit-identical for any number of threads, and for
 // any assignment of chunks to threads.
 //
-// A Team runs the chunks of a loop on the calling thread and its workers. Chunks are claimed one at
-// a time from a shared counter, so a thread the scheduler has taken away (another busy process, the
-// haptic thread) delays the loop by at most the chunk it holds: the others take the rest. Waiting
+// A Team runs the chunks of a loop on the calling thread and its workers. Each thread claims the
+// chunks of its own contiguous segment one at a time (the same rows every loop, as with a static
+// schedule: they stay in its core's cache), then those left in the others'. A thread the scheduler
+// has taken away (another busy process, the haptic thread) delays a loop by at most the chunk it
+// holds: the others take the rest of its segment. Waiting
 // threads spin for at most kSpin, then sleep on a futex (std::atomic::wait): a step's loops follow
 // one another within microseconds, so workers stay awake through a step and sleep between steps,
 // and a waiting thread never holds a core that a descheduled one needs for longer than kSpin.
@@ -69,17 +71,22 @@ class Team {
  private:
   using Call = void (*)(void*, std::size_t);
   void dispatch(std::size_t chunks, Call call, void* context);
-  void work();
-  // Runs chunks of the job of `generation` until none is left or a newer job is posted.
-  void claim(std::uint32_t generation, Call call, void* context, std::uint32_t chunks);
+  void work(int self);
+  // Thread `self` runs chunks of the job of `generation`: its own segment first, then what is left
+  // of the others, until none is left or a newer job is posted.
+  void claim(int self, std::uint32_t generation, Call call, void* context, std::uint32_t chunks);
 
-  // ticket_: the job's generation (high half) and its next unclaimed chunk (low half).
-  // Written by all threads during a job: each on its own cache line.
-  alignas(64) std::atomic<std::uint64_t> ticket_{0};
+  // Thread s owns the chunks [s n / size, (s + 1) n / size) of a job of n chunks; next holds the
+  // job's generation (high half) and the segment's next unclaimed chunk (low half). Each on its
+  // own cache line, where only its owner claims unless it has fallen behind.
+  struct alignas(64) Segment {
+    std::atomic<std::uint64_t> next{0};
+  };
+  std::vector<Segment> segments_;
   alignas(64) std::atomic<std::uint32_t> done_{0};  // chunks of the current job that have returned
   std::atomic<bool> caller_sleeping_{false};
   // Written by the caller when it posts a job.
-  alignas(64) std::atomic<std::uint32_t> generation_{0};  // what sleeping workers wait on
+  alignas(64) std::atomic<std::uint32_t> generation_{0};  // published last; sleeping workers wait on it
   std::atomic<Call> call_{nullptr};
   std::atomic<void*> context_{nullptr};
   std::atomic<std::uint32_t> chunks_{0};
