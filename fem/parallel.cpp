@@ -39,15 +39,17 @@ Team::~Team() {
 }
 
 // A job's fields and segments are written before its generation is published (release). A thread
-// that read them for an older generation may see a newer job's fields, but then its claim on the
-// older generation fails: the caller posts a job only after every chunk of the last one returned.
+// that read the fields of generation g after job g + 2 overwrote them finds the segments at g + 1
+// or later, so its claims on g fail; a claim on g that succeeds means job g is not done, so job
+// g + 2 has not been posted and the fields it read are g's.
 void Team::dispatch(std::size_t chunks, Call call, void* context) {
   const auto n = static_cast<std::uint32_t>(chunks);
   const auto size = static_cast<std::uint64_t>(segments_.size());
   const std::uint32_t generation = generation_.load(std::memory_order_relaxed) + 1;
-  call_.store(call, std::memory_order_relaxed);
-  context_.store(context, std::memory_order_relaxed);
-  chunks_.store(n, std::memory_order_relaxed);
+  Job& job = jobs_[generation % 2];
+  job.call.store(call, std::memory_order_relaxed);
+  job.context.store(context, std::memory_order_relaxed);
+  job.chunks.store(n, std::memory_order_relaxed);
   done_.store(0, std::memory_order_relaxed);
   failed_.store(false, std::memory_order_relaxed);
   error_ = nullptr;
@@ -115,8 +117,9 @@ void Team::work(int self) {
     }
     if (stop_.load(std::memory_order_acquire)) return;
     seen = generation_.load(std::memory_order_acquire);
-    claim(self, seen, call_.load(std::memory_order_relaxed), context_.load(std::memory_order_relaxed),
-          chunks_.load(std::memory_order_relaxed));
+    const Job& job = jobs_[seen % 2];
+    claim(self, seen, job.call.load(std::memory_order_relaxed), job.context.load(std::memory_order_relaxed),
+          job.chunks.load(std::memory_order_relaxed));
   }
 }
 

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -85,11 +86,15 @@ class Team {
   std::vector<Segment> segments_;
   alignas(64) std::atomic<std::uint32_t> done_{0};  // chunks of the current job that have returned
   std::atomic<bool> caller_sleeping_{false};
-  // Written by the caller when it posts a job.
+  // Written by the caller when it posts a job: the job of generation g in jobs_[g % 2], which stays
+  // as it is until job g + 1 is done (so until every claim on job g has been made).
+  struct Job {
+    std::atomic<Call> call{nullptr};
+    std::atomic<void*> context{nullptr};
+    std::atomic<std::uint32_t> chunks{0};
+  };
   alignas(64) std::atomic<std::uint32_t> generation_{0};  // published last; sleeping workers wait on it
-  std::atomic<Call> call_{nullptr};
-  std::atomic<void*> context_{nullptr};
-  std::atomic<std::uint32_t> chunks_{0};
+  std::array<Job, 2> jobs_;
   std::atomic<int> sleeping_workers_{0};
   std::atomic<bool> failed_{false};
   std::exception_ptr error_;

@@ -1,5 +1,6 @@
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <numeric>
@@ -54,6 +55,19 @@ TEST_CASE("parallel team: thousands of short jobs in a row, and jobs after the w
     if (job % 2000 == 0) busy_for(std::chrono::microseconds(2000));
   }
   CHECK(got == expected);
+}
+
+TEST_CASE("parallel team: jobs of changing sizes on more threads than cores") {
+  // Preempted workers that wake in the middle of a later job must neither run a chunk twice nor
+  // count one for the wrong job (a miscount would leave run() waiting for ever).
+  parallel::Team team(5);
+  std::vector<int> hits(300);
+  for (int job = 0; job < 100000; ++job) {
+    const std::size_t n = 1 + static_cast<std::size_t>((job * 7919) % 300);
+    team.run(n, [&](std::size_t c) { ++hits[c]; });
+    for (std::size_t c = 0; c < n; ++c) REQUIRE(hits[c] == 1);
+    std::fill(hits.begin(), hits.begin() + static_cast<std::ptrdiff_t>(n), 0);
+  }
 }
 
 TEST_CASE("parallel team: the workers take part in a long job") {
