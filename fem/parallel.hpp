@@ -8,12 +8,13 @@
 // chunks of its own contiguous segment one at a time (the same rows every loop, as with a static
 // schedule: they stay in its core's cache), then those left in the others'. A thread the scheduler
 // has taken away (another busy process, the haptic thread) delays a loop by at most the chunk it
-// holds: the others take the rest of its segment. Waiting
-// threads spin for at most kSpin, then sleep on a futex (std::atomic::wait): a step's loops follow
-// one another within microseconds, so workers stay awake through a step and sleep between steps,
-// and a waiting thread never holds a core that a descheduled one needs for longer than kSpin.
-// (OpenMP's default policy spins for about 300 thousand polls: with one more busy process on two
-// cores that made a tissue step take up to 0.8 s; config/scenarios/README.md.)
+// holds: the others take the rest of its segment.
+//
+// Waiting threads spin for at most kSpin, then sleep on a futex (std::atomic::wait). A step's loops
+// follow one another within microseconds, so workers stay awake through a step and sleep between
+// steps, and a waiting thread never holds a core that a descheduled one needs for longer than
+// kSpin. (OpenMP's default policy spins for about 300 thousand polls: with one more busy process
+// on two cores, a tissue step's 95th percentile was 0.16-0.21 s; config/scenarios/README.md.)
 #pragma once
 
 #include <algorithm>
