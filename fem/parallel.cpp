@@ -1,5 +1,7 @@
 #include "fem/parallel.hpp"
 
+#include <stdexcept>
+
 namespace scalpel::parallel {
 
 namespace {
@@ -43,6 +45,7 @@ Team::~Team() {
 // or later, so its claims on g fail; a claim on g that succeeds means job g is not done, so job
 // g + 2 has not been posted and the fields it read are g's.
 void Team::dispatch(std::size_t chunks, Call call, void* context) {
+  if (chunks > UINT32_MAX) throw std::length_error("parallel::Team: more than 2^32 - 1 chunks in one loop");
   const auto n = static_cast<std::uint32_t>(chunks);
   const auto size = static_cast<std::uint64_t>(segments_.size());
   const std::uint32_t generation = generation_.load(std::memory_order_relaxed) + 1;
