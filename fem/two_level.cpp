@@ -357,7 +357,8 @@ void TwoLevelPreconditioner::smooth(std::span<const BlockRow> a, std::span<const
       if (!active[i]) {
         res[i].setZero();
         (*d)[i].setZero();
-        z[i].setZero();
+        // Not after the first pass: other rows read z_i then (times a zero block), and it is 0.
+        if (from_zero) z[i].setZero();
         continue;
       }
       res[i] = from_zero ? r[i] : Vec3(r[i] - row_product(a[i], z));
