@@ -38,7 +38,8 @@
 // bench/bench_fem.cpp a step after a cut needs 5.1 CG iterations (mass-spring 14). Rings stop at
 // local_fraction of the active nodes (small meshes); a change that reaches half of them (the first
 // step, a severed part) is not local and is solved globally at once. The local solve changes the
-// start, not the solution.
+// start, not the solution. Its sweeps run on two threads: two parts of the region that share no
+// block are swept at once, then the interface between them (fem/tissue.cpp).
 //
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
 // a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
@@ -53,6 +54,7 @@
 // (fem/parallel.hpp), which sleep outside them.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -178,9 +180,8 @@ class TissueModel {
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
-  // The local solve around the changed rows (see above), serial; false if the change is not local.
-  // active_count: the active nodes, which set its size and iteration caps. Leaves r_ current; shares no
-  // scratch with the coarse update, which may run beside it.
+  // The local solve around the changed rows (see above), on two threads; false if the change is not
+  // local. active_count: the active nodes, which set its size and iteration caps. Leaves r_ current.
   bool solve_locally(std::span<const std::uint32_t> changed, std::size_t active_count, double target,
                      StepStats& st);
 
@@ -213,6 +214,21 @@ class TissueModel {
   std::vector<std::uint32_t> changed_;  // rows rebuilt since the last step, sorted
   std::vector<std::uint32_t> local_;    // the nodes of the local solve, sorted
   std::vector<std::uint8_t> in_local_;
+  // The groups of the local solve's sweeps (I0, I1, interface; see solve_locally) and their
+  // couplings in the region: for the k-th node, links [start[2k], start[2k+1]) come before it in
+  // the sweep order, [start[2k+1], start[2k+2]) after it.
+  struct LocalLink {
+    std::uint32_t col;
+    const Mat3* block;
+  };
+  struct LocalGroup {
+    std::vector<std::uint32_t> nodes;  // slot order
+    std::vector<LocalLink> links;
+    std::vector<std::uint32_t> start;
+  };
+  static constexpr std::size_t kMinHalf = 64;  // a region of fewer than 2 kMinHalf nodes is not split
+  std::array<LocalGroup, 3> groups_;
+  std::vector<std::uint8_t> group_of_;  // per node slot of the region: its group
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
   std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_, t_;
@@ -220,7 +236,6 @@ class TissueModel {
   std::vector<double> stiffness_factor_;  // per region: dt beta + dt^2, the factor of K in A [s^2]
   std::vector<double> partial_;
   std::unique_ptr<parallel::Team> team_;
-  parallel::Team serial_{1};  // for the coarse update beside the local solve
 };
 
 }  // namespace scalpel
