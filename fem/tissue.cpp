@@ -315,7 +315,7 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
 // about 19 iterations where block-Jacobi needed 48, whatever the size of the region, and in
 // Eisenstat's form an iteration costs about what a block-Jacobi one does.
 bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, std::size_t active_count,
-                                double target, StepStats& st) {
+                                double target, StepStats& st, parallel::Team& team) {
   const std::size_t nn = rows_.size();
   in_local_.assign(nn, 0);
   group_of_.resize(nn);
@@ -417,7 +417,6 @@ bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, std::siz
     }
     group.start.push_back(static_cast<std::uint32_t>(group.links.size()));
   }
-  parallel::Team& team = this->team();
   const auto interiors = [&](auto&& f) {  // f(group, index) on I0 and I1 at once
     team.run(2, [&](std::size_t g) { f(groups_[g], g); });
   };
@@ -644,14 +643,28 @@ StepStats TissueModel::step(double dt) {
   const bool update = two_level && !coarse_stale_ && !changed_.empty();
   const auto active_count =
       (local || update) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
-  if (update) {
-    for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+  const auto split = [&](parallel::Team& split_team) {
     // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
-    coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), team);
+    coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
+  };
+  if (update)
+    for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+  bool solved_locally = false;
+  if (local && update && team.size() > 1 && coarse_.severs(rows_, active_, changed_)) {
+    // A split recomputes the coarse operator (2.8-3.8 ms on two threads during the incision of
+    // bench/bench_fem.cpp), about as long as the local solve takes on one thread: one thread each.
+    team.run(2, [&](std::size_t section) {
+      if (section == 0)
+        solved_locally = solve_locally(changed_, active_count, target, st, solo_[0]);
+      else
+        split(solo_[1]);
+    });
+  } else {
+    if (update) split(team);
+    solved_locally = local && solve_locally(changed_, active_count, target, st, team);
   }
-  const bool solved_locally = local && solve_locally(changed_, active_count, target, st);
   changed_.clear();
   born_.clear();
   if (solved_locally)

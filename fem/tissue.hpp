@@ -39,7 +39,8 @@
 // local_fraction of the active nodes (small meshes); a change that reaches half of them (the first
 // step, a severed part) is not local and is solved globally at once. The local solve changes the
 // start, not the solution. Its sweeps run on two threads: two parts of the region that share no
-// block are swept at once, then the interface between them (fem/tissue.cpp).
+// block are swept at once, then the interface between them (fem/tissue.cpp). At a step whose cut
+// severs a coarse aggregate it runs on one thread, beside the split (fem/two_level.hpp).
 //
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
 // a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
@@ -180,10 +181,11 @@ class TissueModel {
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
-  // The local solve around the changed rows (see above), on two threads; false if the change is not
-  // local. active_count: the active nodes, which set its size and iteration caps. Leaves r_ current.
+  // The local solve around the changed rows (see above), on `team` (the same result on any); false
+  // if the change is not local. active_count: the active nodes, which set its size and iteration
+  // caps. Leaves r_ current; shares no data with the coarse update, which may run beside it.
   bool solve_locally(std::span<const std::uint32_t> changed, std::size_t active_count, double target,
-                     StepStats& st);
+                     StepStats& st, parallel::Team& team);
 
   TetMesh& mesh_;
   std::vector<Material> materials_;
@@ -236,6 +238,7 @@ class TissueModel {
   std::vector<double> stiffness_factor_;  // per region: dt beta + dt^2, the factor of K in A [s^2]
   std::vector<double> partial_;
   std::unique_ptr<parallel::Team> team_;
+  std::array<parallel::Team, 2> solo_{parallel::Team(1), parallel::Team(1)};  // one thread each, side by side
 };
 
 }  // namespace scalpel

@@ -258,51 +258,74 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
   return factored_;
 }
 
+// The aggregates holding one of `nodes`, sorted.
+std::vector<std::uint32_t> TwoLevelPreconditioner::touched(std::span<const std::uint32_t> nodes) const {
+  std::vector<std::uint32_t> out;
+  for (const std::uint32_t i : nodes)
+    if (i < aggregate_.size() && aggregate_[i] >= 0) out.push_back(static_cast<std::uint32_t>(aggregate_[i]));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+void TwoLevelPreconditioner::connected_parts(std::uint32_t ag, std::span<const BlockRow> a,
+                                             std::span<const std::uint8_t> active, Parts& out) {
+  // Connected parts of the active members over the current pattern (members_ in order: the parts
+  // and their numbering do not depend on anything else). seen_ marks the visited ones.
+  const std::size_t nn = a.size();
+  out.parts.clear();
+  out.rest.clear();
+  for (const Member& m : members_[ag]) {
+    const std::uint32_t s0 = m.node;
+    if (!active[s0]) {
+      out.rest.push_back(s0);
+      continue;
+    }
+    if (seen_[s0]) continue;
+    out.parts.emplace_back();
+    out.stack.assign(1, s0);
+    seen_[s0] = 1;
+    while (!out.stack.empty()) {
+      const std::uint32_t i = out.stack.back();
+      out.stack.pop_back();
+      out.parts.back().push_back(i);
+      for (const std::uint32_t j : a[i].cols)
+        if (j < nn && active[j] && !seen_[j] && aggregate_[j] == static_cast<std::int32_t>(ag)) {
+          seen_[j] = 1;
+          out.stack.push_back(j);
+        }
+    }
+  }
+  for (const auto& part : out.parts)
+    for (const std::uint32_t i : part) seen_[i] = 0;
+}
+
+bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
+                                    std::span<const std::uint32_t> nodes) {
+  if (options_.prolongator_weight > 0 || members_.empty()) return false;
+  reserve_nodes(a.size());
+  Parts found;
+  for (const std::uint32_t ag : touched(nodes)) {
+    connected_parts(ag, a, active, found);
+    if (found.parts.size() > 1) return true;
+  }
+  return false;
+}
+
 std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const std::uint8_t> active,
                                                   std::span<const std::uint32_t> nodes,
                                                   std::span<const Vec3> x, parallel::Team& team) {
   if (options_.prolongator_weight > 0 || members_.empty()) return 0;
-  const std::size_t nn = a.size();
-  reserve_nodes(nn);
-  std::vector<std::uint32_t> touched;
-  for (const std::uint32_t i : nodes)
-    if (i < nn && aggregate_[i] >= 0) touched.push_back(static_cast<std::uint32_t>(aggregate_[i]));
-  std::sort(touched.begin(), touched.end());
-  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  reserve_nodes(a.size());
   std::size_t made = 0;
-  std::vector<std::uint32_t> stack, rest;
-  std::vector<std::vector<std::uint32_t>> parts;
-  for (const std::uint32_t ag : touched) {
-    // Connected parts of the active members over the current pattern (members_ in order: the
-    // parts and their numbering do not depend on anything else). seen_ marks the visited ones.
-    parts.clear();
-    rest.clear();
-    for (const Member& m : members_[ag]) {
-      const std::uint32_t s0 = m.node;
-      if (!active[s0]) {
-        rest.push_back(s0);
-        continue;
-      }
-      if (seen_[s0]) continue;
-      parts.emplace_back();
-      stack.assign(1, s0);
-      seen_[s0] = 1;
-      while (!stack.empty()) {
-        const std::uint32_t i = stack.back();
-        stack.pop_back();
-        parts.back().push_back(i);
-        for (const std::uint32_t j : a[i].cols)
-          if (j < nn && active[j] && !seen_[j] && aggregate_[j] == static_cast<std::int32_t>(ag)) {
-            seen_[j] = 1;
-            stack.push_back(j);
-          }
-      }
-    }
-    for (const auto& part : parts)
-      for (const std::uint32_t i : part) seen_[i] = 0;
+  Parts found;
+  for (const std::uint32_t ag : touched(nodes)) {
+    connected_parts(ag, a, active, found);
+    auto& parts = found.parts;
     if (parts.size() < 2) continue;
-    parts.front().insert(parts.front().end(), rest.begin(), rest.end());  // inactive: no coarse part
+    parts.front().insert(parts.front().end(), found.rest.begin(),
+                         found.rest.end());  // inactive: no coarse part
     for (std::size_t k = 0; k < parts.size(); ++k) {
       const auto id = k == 0 ? ag : static_cast<std::uint32_t>(members_.size());
       if (k > 0) {

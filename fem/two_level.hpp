@@ -104,6 +104,10 @@ class TwoLevelPreconditioner {
                             std::span<const std::uint32_t> nodes, std::span<const Vec3> x,
                             parallel::Team& team);
 
+  // Whether split_severed() would split an aggregate (without changing anything).
+  bool severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
+              std::span<const std::uint32_t> nodes);
+
   // A node born after build() joins the aggregate of `parent`, with that aggregate's rigid modes
   // evaluated at x. Ac is kept (stale, still positive definite).
   void extend(std::uint32_t node, std::uint32_t parent, const Vec3& x);
@@ -148,6 +152,14 @@ class TwoLevelPreconditioner {
                       parallel::Team& team);
   bool galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active, parallel::Team& team);
   void reserve_nodes(std::size_t n);
+  struct Parts {
+    std::vector<std::vector<std::uint32_t>> parts;  // connected parts of the active members
+    std::vector<std::uint32_t> rest;                // inactive members
+    std::vector<std::uint32_t> stack;
+  };
+  [[nodiscard]] std::vector<std::uint32_t> touched(std::span<const std::uint32_t> nodes) const;
+  void connected_parts(std::uint32_t ag, std::span<const BlockRow> a, std::span<const std::uint8_t> active,
+                       Parts& out);
 
   TwoLevelOptions options_;
   bool factored_ = false;

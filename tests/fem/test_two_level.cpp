@@ -308,6 +308,8 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
   Cycle split(s, 1), kept(s, 1);
   REQUIRE(straddling(split.pre) > 0);
   const std::size_t before = split.pre.aggregate_count();
+  CHECK(split.pre.severs(cut.a, cut.active, all));
+  CHECK(split.pre.aggregate_count() == before);  // a query: nothing split yet
   const std::size_t made = split.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1));
   CHECK(made > 0);
   CHECK(split.pre.aggregate_count() == before + made);
@@ -324,8 +326,10 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
   CAPTURE(without);
   CHECK(with_split < without);
   // Nothing left to split; a smoothed prolongator is left alone.
+  CHECK_FALSE(split.pre.severs(cut.a, cut.active, all));
   CHECK(split.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1)) == 0);
   Cycle smoothed(s, 1, kSmoothed);
+  CHECK_FALSE(smoothed.pre.severs(cut.a, cut.active, all));
   CHECK(smoothed.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1)) == 0);
 }
 
