@@ -446,12 +446,13 @@ bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, std::siz
   //   A^ p = t + (D + L)^{-1} (p - D t),  t = (D + U)^{-1} p.
   // Unknown x^ = (D + U) dv, residual r^ = (D + L)^{-1} r.
   // r_i = ((D + L) r^)_i, the residual the stop is defined on.
+  const auto residual = [&](const LocalGroup& g, std::size_t k) {
+    const std::uint32_t i = g.nodes[k];
+    return Vec3(diag(i) * z_[i] + lower(g, k, z_));
+  };
   const auto residuals = [&](const LocalGroup& g, std::size_t h) {
     double sum = 0;
-    for (std::size_t k = 0; k < g.nodes.size(); ++k) {
-      const std::uint32_t i = g.nodes[k];
-      sum += Vec3(diag(i) * z_[i] + lower(g, k, z_)).squaredNorm();
-    }
+    for (std::size_t k = 0; k < g.nodes.size(); ++k) sum += residual(g, k).squaredNorm();
     sum_a[h] = sum;
   };
   // r^ = (D + L)^{-1} r, then p = D r^; sums ||r||^2 and r^ . D r^.
@@ -535,10 +536,7 @@ bool TissueModel::solve_locally(std::span<const std::uint32_t> changed, std::siz
   unknown(groups_[2]);
   interiors([&](const LocalGroup& g, std::size_t) { unknown(g); });
   all([&](const LocalGroup& g, std::size_t) {
-    for (std::size_t k = 0; k < g.nodes.size(); ++k) {
-      const std::uint32_t i = g.nodes[k];
-      r_[i] = diag(i) * z_[i] + lower(g, k, z_);
-    }
+    for (std::size_t k = 0; k < g.nodes.size(); ++k) r_[g.nodes[k]] = residual(g, k);
   });
   st.local_iterations = it;
   // r_L is current; the ring just outside L sees the update through its columns in L.

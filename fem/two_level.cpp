@@ -324,8 +324,8 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
     connected_parts(ag, a, active, found);
     auto& parts = found.parts;
     if (parts.size() < 2) continue;
-    parts.front().insert(parts.front().end(), found.rest.begin(),
-                         found.rest.end());  // inactive: no coarse part
+    // The inactive members have no coarse part: they stay with the first one.
+    parts.front().insert(parts.front().end(), found.rest.begin(), found.rest.end());
     for (std::size_t k = 0; k < parts.size(); ++k) {
       const auto id = k == 0 ? ag : static_cast<std::uint32_t>(members_.size());
       if (k > 0) {
