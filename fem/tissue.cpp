@@ -634,11 +634,12 @@ StepStats TissueModel::step(double dt) {
   const double target = settings_.tolerance * b_norm;
   // After a topology change: the local solve first (see tissue.hpp); what it leaves is smooth.
   // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
-  // a cut created, and rebuilt at the step after it was found stale (too many two-level iterations,
-  // or too many extended nodes), so a cut step itself never pays for a rebuild.
+  // a cut created, and rebuilt at the step after the one that found it stale (too many two-level
+  // iterations, too many extended nodes, an aggregate grown too large): the step that made the
+  // change does not also pay for the rebuild.
   const bool local = settings_.local_rings > 0 && !changed_.empty() && std::sqrt(rr) > target;
   const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
-  const bool update = two_level && !coarse_stale_ && !changed_.empty();
+  const bool update = two_level && !coarse_stale_ && !coarse_regroup_ && !changed_.empty();
   const auto active_count =
       (local || update) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
   const auto split = [&](parallel::Team& split_team) {
@@ -646,6 +647,7 @@ StepStats TissueModel::step(double dt) {
     coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
+    coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
   };
   if (update)
     for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
@@ -668,10 +670,11 @@ StepStats TissueModel::step(double dt) {
   if (solved_locally)
     rr = parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
   if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
-  if (two_level && coarse_stale_ && !update) {
+  if (two_level && (coarse_stale_ || coarse_regroup_) && !update) {
     coarse_.set_options(settings_.two_level);
-    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, team);
+    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, team, coarse_stale_);
     coarse_stale_ = false;
+    coarse_regroup_ = false;
     st.preconditioner_built = true;
   }
   // z = B r; returns r . z.

@@ -91,9 +91,15 @@ struct TissueSettings {
   int two_level_after = 12;
   // The two-level preconditioner is rebuilt (aggregates and coarse factorisation) at the step after
   // one that needed more two-level iterations than this, or after the step in which cuts brought the
-  // nodes added since the last build above coarse_rebuild_fraction of the active nodes.
+  // nodes added since the last build above coarse_rebuild_fraction of the active nodes, or one
+  // aggregate above coarse_regroup_growth times the nodes it was built with. The last keeps the
+  // smoother's lambda estimate (fem/two_level.hpp): the nodes a cut creates join the aggregate of
+  // their parent, and the aggregates along a deep incision grow to 5-10 times the median size
+  // (100-200 nodes at 20 thousand tetrahedra): one rigid motion for the tissue around the crack
+  // tip, which deforms the most.
   int coarse_rebuild_iterations = 40;
   double coarse_rebuild_fraction = 0.1;
+  double coarse_regroup_growth = 2;
   TwoLevelOptions two_level = {};  // smoother and prolongator of the two-level cycle (fem/two_level.hpp)
   // After a topology change, the rows it rebuilt and local_rings rings of neighbours around them
   // (fewer where more would pass local_fraction of the active nodes) are solved first (CG with the
@@ -211,6 +217,7 @@ class TissueModel {
   std::vector<std::vector<Entry>> entries_;  // per node slot: incident tets, sorted by slot
   TwoLevelPreconditioner coarse_;
   bool coarse_stale_ = true;                                   // rebuild before the next solve
+  bool coarse_regroup_ = false;                                // the same, keeping lambda
   std::vector<std::pair<std::uint32_t, std::uint32_t>> born_;  // (node, first parent) since the last step
   std::vector<std::uint32_t> dirty_list_;
   std::vector<std::uint32_t> changed_;  // rows rebuilt since the last step, sorted

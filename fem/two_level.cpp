@@ -63,6 +63,15 @@ std::pair<Vec3, Mat6> rigid_basis(std::span<const std::uint32_t> nodes, std::spa
   return {c, t};
 }
 
+// f(task, begin, end) over [0, n) in `tasks` ranges of about equal length, on the team (for loops
+// over aggregates: too few for the node-sized chunks of parallel::for_chunks).
+constexpr std::size_t kAggregateTasks = 16;
+template <class F>
+void for_ranges(parallel::Team& team, std::size_t n, F&& f) {
+  team.run(kAggregateTasks,
+           [&](std::size_t t) { f(t, t * n / kAggregateTasks, (t + 1) * n / kAggregateTasks); });
+}
+
 }  // namespace
 
 void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
@@ -121,10 +130,11 @@ void TwoLevelPreconditioner::estimate_lambda(std::span<const BlockRow> a, std::s
 
 bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
                                    std::span<const std::uint8_t> active, std::span<const Vec3> x,
-                                   std::vector<double>& partial, parallel::Team& team) {
+                                   std::vector<double>& partial, parallel::Team& team, bool estimate) {
   const std::size_t nn = a.size();
   aggregate_.assign(nn, -1);
-  prolongator_.assign(nn, {});
+  prolongator_.resize(nn);
+  for (std::vector<Entry>& row : prolongator_) row.clear();  // keeps their storage
   seen_.assign(nn, 0);
   extended_ = 0;
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
@@ -170,18 +180,21 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   for (std::uint32_t i = 0; i < nn; ++i)
     if (aggregate_[i] >= 0) nodes[static_cast<std::size_t>(aggregate_[i])].push_back(i);
 
-  // Tentative prolongator: orthonormalised rigid modes per aggregate.
-  std::vector<Mat36> tentative(nn, Mat36::Zero());
+  // Tentative prolongator: orthonormalised rigid modes per aggregate (each writes its own nodes).
+  std::vector<Mat36>& tentative = tentative_;
+  tentative.resize(nn);
   centre_.assign(na, Vec3::Zero());
   modes_.assign(na, Mat6::Zero());
-  for (std::size_t ag = 0; ag < na; ++ag) {
-    const auto [c, t] = rigid_basis(nodes[ag], x);
-    for (const std::uint32_t i : nodes[ag]) tentative[i] = rigid_row(x[i], c) * t;
-    centre_[ag] = c;
-    modes_[ag] = t;
-  }
+  for_ranges(team, na, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t ag = begin; ag < end; ++ag) {
+      const auto [c, t] = rigid_basis(nodes[ag], x);
+      for (const std::uint32_t i : nodes[ag]) tentative[i] = rigid_row(x[i], c) * t;
+      centre_[ag] = c;
+      modes_[ag] = t;
+    }
+  });
 
-  estimate_lambda(a, diag_inverse, active, partial, team);
+  if (estimate || !(lambda_ > 0)) estimate_lambda(a, diag_inverse, active, partial, team);
 
   // Smoothed prolongator, row i: T_i - w D_i^{-1} sum_j A_ij T_j, blocks sorted by aggregate.
   const double w = lambda_ > 0 ? options_.prolongator_weight / lambda_ : 0.0;
@@ -205,6 +218,8 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   for (std::uint32_t i = 0; i < nn; ++i)
     for (std::size_t k = 0; k < prolongator_[i].size(); ++k)
       members_[prolongator_[i][k].aggregate].push_back({i, static_cast<std::uint32_t>(k)});
+  built_size_.resize(na);
+  for (std::size_t ag = 0; ag < na; ++ag) built_size_[ag] = static_cast<std::uint32_t>(members_[ag].size());
 
   residual_.assign(nn, Vec3::Zero());
   direction_.assign(nn, Vec3::Zero());
@@ -217,29 +232,31 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
                                       parallel::Team& team) {
   const std::size_t nn = a.size(), na = members_.size();
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
-  // A P by node rows, then block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i.
-  std::vector<std::vector<Entry>> ap(nn);
-  parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      if (!active[i]) continue;
-      for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
-        const std::uint32_t j = a[i].cols[k];
-        if (!usable(j)) continue;
-        for (const Entry& e : prolongator_[j])
-          accumulate<&Entry::aggregate>(ap[i], e.aggregate, Mat36(a[i].blocks[k] * e.block));
-      }
-    }
-  });
-  std::vector<std::vector<BlockCholesky::Entry>> coarse_rows(na);
-  parallel::for_chunks(team, na, [&](std::size_t, std::size_t begin, std::size_t end) {
+  // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row (A P)_i
+  // summed per aggregate in a list kept by each task.
+  std::vector<std::vector<BlockCholesky::Entry>>& coarse_rows = coarse_rows_;
+  coarse_rows.resize(na);
+  ap_.resize(kAggregateTasks);
+  for_ranges(team, na, [&](std::size_t task, std::size_t begin, std::size_t end) {
+    std::vector<Entry>& ap = ap_[task];
     for (std::size_t ag = begin; ag < end; ++ag) {
       std::vector<BlockCholesky::Entry>& row = coarse_rows[ag];
+      row.clear();
       const auto add = [&](std::uint32_t col, const Mat6& value) {
         accumulate<&BlockCholesky::Entry::col>(row, col, value);
       };
       for (const Member& m : members_[ag]) {
-        const Mat36& pi = prolongator_[m.node][m.entry].block;
-        for (const Entry& e : ap[m.node]) add(e.aggregate, pi.transpose() * e.block);
+        const std::uint32_t i = m.node;
+        if (!active[i]) continue;
+        ap.clear();
+        for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+          const std::uint32_t j = a[i].cols[k];
+          if (!usable(j)) continue;
+          for (const Entry& e : prolongator_[j])
+            accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(a[i].blocks[k] * e.block));
+        }
+        const Mat36& pi = prolongator_[i][m.entry].block;
+        for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
       }
       // A dropped direction (zero column of P) gets a unit diagonal: its coarse unknown decouples.
       add(static_cast<std::uint32_t>(ag), Mat6::Zero());
@@ -330,6 +347,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
       const auto id = k == 0 ? ag : static_cast<std::uint32_t>(members_.size());
       if (k > 0) {
         members_.emplace_back();
+        built_size_.emplace_back();
         centre_.emplace_back();
         modes_.emplace_back();
         ++made;
@@ -345,10 +363,18 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
         prolongator_[i].assign(1, Entry{id, rigid_row(x[i], c) * t});
         members_[id].push_back({i, 0});
       }
+      built_size_[id] = static_cast<std::uint32_t>(members_[id].size());
     }
   }
   if (made > 0) galerkin(a, active, team);
   return made;
+}
+
+double TwoLevelPreconditioner::growth() const {
+  double most = 0;
+  for (std::size_t ag = 0; ag < members_.size(); ++ag)
+    most = std::max(most, static_cast<double>(members_[ag].size()) / std::max<double>(1, built_size_[ag]));
+  return most;
 }
 
 void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, const Vec3& x) {

@@ -47,10 +47,10 @@
 // 1.1 hi = 1.21 lambda) and Ac > 0, so B is a valid CG preconditioner however stale Ac is.
 // That is what makes a cut cheap: the nodes a cut creates join the aggregate of their parent node
 // (extend(), with the tentative row) and the coarse operator is kept; build() is only needed when
-// the preconditioner has grown too stale (the caller watches the iteration count). One thing a cut
-// does that a stale coarse operator cannot absorb: it severs an aggregate, whose one set of rigid
-// modes then ties the two sides of the crack together (the smallest eigenvalues of the
-// preconditioned matrix drop, to 0.01-0.02 during a deep incision against 0.035-0.05 with fresh
+// the preconditioner has grown too stale (the caller watches the iteration count and growth()).
+// One thing a cut does that a stale coarse operator cannot absorb: it severs an aggregate, whose
+// one set of rigid modes then ties the two sides of the crack together (the smallest eigenvalues
+// of the preconditioned matrix drop, to 0.01-0.02 during a deep incision against 0.035-0.05 with fresh
 // aggregates). split_severed() gives each connected part its own rigid modes and recomputes Ac
 // (3-5 ms, at about one step in ten of a deep incision): during the 3 mm deep incision of
 // bench/bench_fem.cpp a step after a cut then needs 11.6 iterations instead of 14.1 (mass-spring),
@@ -92,9 +92,10 @@ class TwoLevelPreconditioner {
   // modes at positions x (by node slot) and factorises Ac = P^T A P. Allocates: for start-up and
   // for rebuilds. Returns false if Ac could not be factorised (apply() then only smooths).
   // partial holds the chunk sums of multiply().
+  // estimate = false keeps the lambda of the last build (if there was one).
   bool build(std::span<const BlockRow> a, std::span<const Mat3> diag_inverse,
              std::span<const std::uint8_t> active, std::span<const Vec3> x, std::vector<double>& partial,
-             parallel::Team& team);
+             parallel::Team& team, bool estimate = true);
 
   // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
@@ -127,6 +128,8 @@ class TwoLevelPreconditioner {
   [[nodiscard]] std::size_t coarse_size() const { return 6 * members_.size(); }
   // Nodes added by extend() since build().
   [[nodiscard]] std::size_t extended() const { return extended_; }
+  // The largest number of nodes an aggregate holds over the number it was built (or split) with.
+  [[nodiscard]] double growth() const;
   // Aggregate of node slot i, -1 if none.
   [[nodiscard]] std::int32_t aggregate(std::uint32_t i) const {
     return i < aggregate_.size() ? aggregate_[i] : -1;
@@ -171,8 +174,14 @@ class TwoLevelPreconditioner {
   // Per aggregate: the nodes with a block in its column of P (slot order, then extend() order),
   // centroid, orthonormalising map V L^{-1/2}.
   std::vector<std::vector<Member>> members_;
+  std::vector<std::uint32_t> built_size_;  // per aggregate: its member count at build() or split
   std::vector<Vec3> centre_;
   std::vector<Mat6> modes_;
+  // Build scratch: tentative prolongator rows by node slot, block rows of Ac, and per task over
+  // aggregates one row of A P.
+  std::vector<Mat36> tentative_;
+  std::vector<std::vector<BlockCholesky::Entry>> coarse_rows_;
+  std::vector<std::vector<Entry>> ap_;
   BlockCholesky cholesky_;  // of Ac
   Eigen::VectorXd rc_, ec_;
   // Smoother work vectors, by node slot.

@@ -274,6 +274,43 @@ TEST_CASE("two-level: a stale cycle extended by new nodes stays positive definit
   }
 }
 
+TEST_CASE("two-level: growth() reports the most grown aggregate; a rebuild may keep lambda") {
+  const System s = make_system({6, 6, 2});
+  Cycle c(s, 1);
+  CHECK(c.pre.growth() == 1.0);
+  const std::uint32_t parent = s.mesh.nodes().back().index;
+  std::size_t size = 0;
+  for (std::uint32_t i = 0; i < s.a.size(); ++i)
+    size += c.pre.aggregate(i) == c.pre.aggregate(parent) ? 1 : 0;
+  REQUIRE(size > 0);
+  const auto first = static_cast<std::uint32_t>(s.a.size());
+  for (std::uint32_t k = 0; k < size; ++k) c.pre.extend(first + k, parent, s.mesh.positions()[parent]);
+  CHECK(c.pre.growth() == doctest::Approx(2.0));  // no other aggregate grew
+  // A rebuild starts over; with estimate = false it keeps lambda, here on a stiffer matrix.
+  const System stiff = make_system({6, 6, 2}, 3.0);
+  const double lambda = c.pre.lambda_estimate();
+  REQUIRE(c.pre.build(stiff.a, stiff.diag_inverse, stiff.active, stiff.mesh.positions(), c.partial, team(2),
+                      false));
+  CHECK(c.pre.growth() == 1.0);
+  CHECK(c.pre.extended() == 0);
+  CHECK(c.pre.lambda_estimate() == lambda);
+  Cycle fresh(stiff, 2);
+  CHECK(fresh.pre.lambda_estimate() != lambda);
+  // Everything else is what a fresh build gives.
+  std::mt19937 rng(5);
+  const std::vector<Vec3> r = random_vector(stiff, rng);
+  CHECK(c.pre.aggregate_count() == fresh.pre.aggregate_count());
+  const std::vector<Vec3> z = c.apply(stiff, r, 2), zf = fresh.apply(stiff, r, 2);
+  double gap = 0, norm = 0;
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    gap = std::max(gap, (z[i] - zf[i]).norm());
+    norm = std::max(norm, zf[i].norm());
+  }
+  CAPTURE(gap);
+  CHECK(gap > 0);  // the smoother weight differs
+  CHECK(gap < 0.5 * norm);
+}
+
 TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
   // A cut through the box along x = 16.9 mm: the couplings across it are removed (A keeps its
   // two diagonal parts, so it stays positive definite). Aggregates grown before straddle it.
