@@ -233,7 +233,8 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
   const std::size_t nn = a.size(), na = members_.size();
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
   // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row (A P)_i
-  // summed per aggregate in a list kept by each task.
+  // summed per aggregate in a list kept by each task (once per aggregate a node belongs to: with
+  // a smoothed prolongator, two to three times).
   std::vector<std::vector<BlockCholesky::Entry>>& coarse_rows = coarse_rows_;
   coarse_rows.resize(na);
   ap_.resize(kAggregateTasks);
