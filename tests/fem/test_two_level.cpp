@@ -274,7 +274,7 @@ TEST_CASE("two-level: a stale cycle extended by new nodes stays positive definit
   }
 }
 
-TEST_CASE("two-level: growth() reports the most grown aggregate; a rebuild may keep lambda") {
+TEST_CASE("two-level: growth() reports the most grown aggregate, and a rebuild may keep lambda") {
   const System s = make_system({6, 6, 2});
   Cycle c(s, 1);
   CHECK(c.pre.growth() == 1.0);
