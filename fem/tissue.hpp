@@ -187,11 +187,13 @@ class TissueModel {
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
-  // The local solve around the changed rows (see above), on `team` (the same result on any); false
-  // if the change is not local. active_count: the active nodes, which set its size and iteration
-  // caps. Leaves r_ current; shares no data with the coarse update, which may run beside it.
-  bool solve_locally(std::span<const std::uint32_t> changed, std::size_t active_count, double target,
-                     StepStats& st, parallel::Team& team);
+  // The region of the local solve (see above): the changed rows and rings of neighbours around
+  // them, in local_ and in_local_; false if the change is not local. active_count: the active
+  // nodes, which set the region's size and the solve's iteration cap.
+  bool local_region(std::span<const std::uint32_t> changed, std::size_t active_count);
+  // The local solve on that region, on `team` (the same result on any). Leaves r_ current; shares
+  // no data with the coarse update, which may run beside it.
+  void solve_locally(std::size_t active_count, double target, StepStats& st, parallel::Team& team);
 
   TetMesh& mesh_;
   std::vector<Material> materials_;
