@@ -9,7 +9,8 @@
 // multiple of the last velocity nearest the solution in the energy norm (the 1-D Galerkin
 // projection onto span{v0}). Motion that settles decays geometrically from step to step, and v0
 // itself then overshoots the solution by the decay factor (right after a cut it was a worse start
-// than zero); s = 1 for steady motion, s = 0 when v0 points away from the solution.
+// than zero); s = 1 for steady motion, s = 0 when v0 points away from the solution. After a cut
+// that makes s = 0, v0 is kept outside the local solve's region (below) and zero inside it.
 //
 // The matrix is assembled row by row: each node row sums the blocks of its incident tetrahedra in
 // slot order, so both threads write disjoint rows and every reduction is over fixed chunks in a
