@@ -687,11 +687,9 @@ StepStats TissueModel::step(double dt) {
     if (update) split(team);
     if (local) solve_locally(active_count, target, st, team);
   }
-  const bool solved_locally = local;
   changed_.clear();
   born_.clear();
-  if (solved_locally)
-    rr = parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
+  if (local) rr = parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
   if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
   if (two_level && (coarse_stale_ || coarse_regroup_) && !update) {
     coarse_.set_options(settings_.two_level);
