@@ -1,6 +1,7 @@
 #include "fem/parallel.hpp"
 
 #include <stdexcept>
+#include <utility>
 
 namespace scalpel::parallel {
 
@@ -74,6 +75,29 @@ void Team::dispatch(std::size_t chunks, Call call, void* context) {
   if (failed_.load(std::memory_order_acquire)) std::rethrow_exception(error_);
 }
 
+// A job of no chunks carries the background call to the workers (woken by its generation); the
+// first that sees it takes it.
+void Team::post_background(Call call, void* context) {
+  const std::uint32_t generation = generation_.load(std::memory_order_relaxed) + 1;
+  Job& job = jobs_[generation % 2];
+  job.chunks.store(0, std::memory_order_relaxed);
+  for (Segment& segment : segments_)
+    segment.next.store(static_cast<std::uint64_t>(generation) << 32, std::memory_order_relaxed);
+  background_error_ = nullptr;
+  background_done_.store(false, std::memory_order_relaxed);
+  background_context_.store(context, std::memory_order_relaxed);
+  background_.store(call, std::memory_order_relaxed);
+  generation_.store(generation, std::memory_order_seq_cst);
+  if (sleeping_workers_.load(std::memory_order_seq_cst) > 0) generation_.notify_all();
+}
+
+std::exception_ptr Team::join_background() {
+  if (!spin_until([&] { return background_done_.load(std::memory_order_acquire); }))
+    while (!background_done_.load(std::memory_order_seq_cst))
+      background_done_.wait(false, std::memory_order_seq_cst);
+  return std::exchange(background_error_, nullptr);
+}
+
 void Team::claim(int self, std::uint32_t generation, Call call, void* context, std::uint32_t chunks) {
   const auto size = static_cast<std::uint64_t>(segments_.size());
   std::uint32_t ran = 0;
@@ -123,6 +147,19 @@ void Team::work(int self) {
     const Job& job = jobs_[seen % 2];
     claim(self, seen, job.call.load(std::memory_order_relaxed), job.context.load(std::memory_order_relaxed),
           job.chunks.load(std::memory_order_relaxed));
+    // run_beside(): published before the generation that announced it, so seen here at the latest
+    // after that generation; the caller waits for it, so at most one is pending.
+    if (background_.load(std::memory_order_relaxed) != nullptr) {
+      if (const Call call = background_.exchange(nullptr, std::memory_order_acquire)) {
+        try {
+          call(background_context_.load(std::memory_order_relaxed), 0);
+        } catch (...) {
+          background_error_ = std::current_exception();
+        }
+        background_done_.store(true, std::memory_order_seq_cst);
+        background_done_.notify_one();
+      }
+    }
   }
 }
 

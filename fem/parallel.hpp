@@ -70,10 +70,41 @@ class Team {
         const_cast<void*>(static_cast<const void*>(&f)));
   }
 
+  // Runs background() on one worker while the caller runs foreground(), whose loops may run on
+  // this team: the worker joins them once background() has returned. Returns when both have; an
+  // exception from either is rethrown here (foreground's first). background() must not run jobs
+  // on this team. Does not allocate. With no worker: background(), then foreground().
+  template <class B, class F>
+  void run_beside(B&& background, F&& foreground) {
+    using Fn = std::remove_reference_t<B>;
+    std::exception_ptr background_error;
+    if (workers_.empty()) {
+      try {
+        background();
+      } catch (...) {
+        background_error = std::current_exception();
+      }
+    } else {
+      post_background([](void* context, std::size_t) { (*static_cast<Fn*>(context))(); },
+                      const_cast<void*>(static_cast<const void*>(&background)));
+    }
+    std::exception_ptr error;
+    try {
+      foreground();
+    } catch (...) {
+      error = std::current_exception();
+    }
+    if (!workers_.empty()) background_error = join_background();
+    if (error || background_error) std::rethrow_exception(error ? error : background_error);
+  }
+
  private:
   using Call = void (*)(void*, std::size_t);
   void dispatch(std::size_t chunks, Call call, void* context);
   void work(int self);
+  void post_background(Call call, void* context);
+  // Waits for the background call to return; its exception, if it threw.
+  std::exception_ptr join_background();
   // Thread `self` runs chunks of the job of `generation`: its own segment first, then what is left
   // of the others, until none is left or a newer job is posted.
   void claim(int self, std::uint32_t generation, Call call, void* context, std::uint32_t chunks);
@@ -100,6 +131,11 @@ class Team {
   std::atomic<bool> failed_{false};
   std::exception_ptr error_;
   std::atomic<bool> stop_{false};
+  // run_beside(): the call a worker takes (set until taken), and whether it has returned.
+  std::atomic<Call> background_{nullptr};
+  std::atomic<void*> background_context_{nullptr};
+  alignas(64) std::atomic<bool> background_done_{true};
+  std::exception_ptr background_error_;
   std::vector<std::thread> workers_;
 };
 

@@ -314,7 +314,7 @@ double TissueModel::multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y) {
 // "Iterative Methods for Sparse Linear Systems", 2nd ed., section 10.2): on the skin slab it needs
 // about 19 iterations where block-Jacobi needed 48, whatever the size of the region, and in
 // Eisenstat's form an iteration costs about what a block-Jacobi one does.
-bool TissueModel::local_region(std::span<const std::uint32_t> changed, std::size_t active_count) {
+bool TissueModel::local_region(std::span<const std::uint32_t> changed, std::size_t active_count, int rings) {
   const std::size_t nn = rows_.size();
   in_local_.assign(nn, 0);
   local_.clear();
@@ -328,7 +328,7 @@ bool TissueModel::local_region(std::span<const std::uint32_t> changed, std::size
   // Rings are added while the region stays within local_fraction of the active nodes (the first
   // ring always).
   const auto cap = static_cast<std::size_t>(settings_.local_fraction * static_cast<double>(active_count));
-  for (int ring = 0, begin = 0; ring < settings_.local_rings; ++ring) {
+  for (int ring = 0, begin = 0; ring < rings; ++ring) {
     const auto end = static_cast<int>(local_.size());
     for (int k = begin; k < end; ++k)
       for (const std::uint32_t j : rows_[local_[static_cast<std::size_t>(k)]].cols)
@@ -616,8 +616,16 @@ StepStats TissueModel::step(double dt) {
   const bool changed = settings_.local_rings > 0 && !changed_.empty();
   const auto active_count =
       (changed || update) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
+  if (update)
+    for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+  // A cut that severs a coarse aggregate: the split runs beside the local solve (below), whose
+  // region then has fewer rings.
+  const bool severs = update && coarse_.severs(rows_, active_, changed_);
   // After a topology change: the local solve first (see tissue.hpp), on this region.
-  const bool region = changed && local_region(changed_, active_count);
+  const bool region =
+      changed && local_region(changed_, active_count,
+                              severs ? std::min(settings_.local_rings, settings_.severing_rings)
+                                     : settings_.local_rings);
   const double vav = multiply(v_, q_);
   std::vector<double>& part = partial_;
   const std::size_t chunks = chunk_count(nn);
@@ -667,22 +675,15 @@ StepStats TissueModel::step(double dt) {
   const bool local = region && std::sqrt(rr) > target;
   const auto split = [&](parallel::Team& split_team) {
     // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
-    coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
+    st.aggregates_split = coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
     coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
   };
-  if (update)
-    for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
-  if (local && update && team.size() > 1 && coarse_.severs(rows_, active_, changed_)) {
-    // A split recomputes the coarse operator (2.8-3.8 ms on two threads during the incision of
-    // bench/bench_fem.cpp), about as long as the local solve takes on one thread: one thread each.
-    team.run(2, [&](std::size_t section) {
-      if (section == 0)
-        solve_locally(active_count, target, st, solo_[0]);
-      else
-        split(solo_[1]);
-    });
+  if (local && severs) {
+    // The split (1.7-2.7 ms during the incision of bench/bench_fem.cpp) on one worker, the local
+    // solve on the caller, joined by the worker once the split is done.
+    team.run_beside([&] { split(solo_); }, [&] { solve_locally(active_count, target, st, team); });
   } else {
     if (update) split(team);
     if (local) solve_locally(active_count, target, st, team);

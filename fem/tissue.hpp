@@ -41,7 +41,10 @@
 // step, a severed part) is not local and is solved globally at once. The local solve changes the
 // start, not the solution. Its sweeps run on two threads: two parts of the region that share no
 // block are swept at once, then the interface between them (fem/tissue.cpp). At a step whose cut
-// severs a coarse aggregate it runs on one thread, beside the split (fem/two_level.hpp).
+// severs a coarse aggregate, one thread splits it (fem/two_level.hpp) and then joins the local solve,
+// whose region has severing_rings rings: during the incision of bench/bench_fem.cpp those steps
+// (where the blade enters the next column of cells) took 1.5-1.8 times the step before them with
+// six rings beside the split on one thread, 1.45-1.5 times with four rings and the handoff.
 //
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
 // a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
@@ -107,6 +110,10 @@ struct TissueSettings {
   // velocities outside held), to local_tolerance of their residual, in at most local_max_iterations
   // and at most the work of local_budget products with the whole matrix; 0 rings: off. See above.
   int local_rings = 6;
+  // At a step whose cut severs a coarse aggregate the local solve shares the team with the split
+  // (fem/two_level.hpp) and runs on one thread until it is done: its region then has at most this
+  // many rings (see above).
+  int severing_rings = 4;
   double local_fraction = 0.4;
   double local_tolerance = 1e-3;
   int local_max_iterations = 100;
@@ -131,6 +138,7 @@ struct StepStats {
   std::size_t strain_limited = 0;     // elements beyond the strain limit (element.hpp) at the start
   std::size_t local_nodes = 0;        // nodes of the local solve after a topology change (0: none)
   int local_iterations = 0;           // its CG iterations (not counted in cg_iterations)
+  std::size_t aggregates_split = 0;   // coarse aggregates added by splitting those the cut severed
   std::string message;                // why, when status == NonFinite
 };
 
@@ -188,10 +196,10 @@ class TissueModel {
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
-  // The region of the local solve (see above): the changed rows and rings of neighbours around
+  // The region of the local solve (see above): the changed rows and `rings` rings of neighbours around
   // them, in local_ and in_local_; false if the change is not local. active_count: the active
   // nodes, which set the region's size and the solve's iteration cap.
-  bool local_region(std::span<const std::uint32_t> changed, std::size_t active_count);
+  bool local_region(std::span<const std::uint32_t> changed, std::size_t active_count, int rings);
   // The local solve on that region, on `team` (the same result on any). Leaves r_ current; shares
   // no data with the coarse update, which may run beside it.
   void solve_locally(std::size_t active_count, double target, StepStats& st, parallel::Team& team);
@@ -248,7 +256,7 @@ class TissueModel {
   std::vector<double> stiffness_factor_;  // per region: dt beta + dt^2, the factor of K in A [s^2]
   std::vector<double> partial_;
   std::unique_ptr<parallel::Team> team_;
-  std::array<parallel::Team, 2> solo_{parallel::Team(1), parallel::Team(1)};  // one thread each, side by side
+  parallel::Team solo_{1};  // the split's loops, on the worker that runs it beside the local solve
 };
 
 }  // namespace scalpel

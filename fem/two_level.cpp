@@ -78,7 +78,7 @@ void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
   if (aggregate_.size() >= n) return;
   aggregate_.resize(n, -1);
   prolongator_.resize(n);
-  for (auto* v : {&residual_, &direction_, &next_}) v->resize(n, Vec3::Zero());
+  for (auto* v : {&residual_, &direction_, &next_, &offset_}) v->resize(n, Vec3::Zero());
   seen_.resize(n, 0);
 }
 
@@ -133,6 +133,7 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
                                    std::vector<double>& partial, parallel::Team& team, bool estimate) {
   const std::size_t nn = a.size();
   aggregate_.assign(nn, -1);
+  offset_.assign(nn, Vec3::Zero());
   prolongator_.resize(nn);
   for (std::vector<Entry>& row : prolongator_) row.clear();  // keeps their storage
   seen_.assign(nn, 0);
@@ -188,7 +189,10 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   for_ranges(team, na, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t ag = begin; ag < end; ++ag) {
       const auto [c, t] = rigid_basis(nodes[ag], x);
-      for (const std::uint32_t i : nodes[ag]) tentative[i] = rigid_row(x[i], c) * t;
+      for (const std::uint32_t i : nodes[ag]) {
+        offset_[i] = x[i] - c;
+        tentative[i] = rigid_row(x[i], c) * t;
+      }
       centre_[ag] = c;
       modes_[ag] = t;
     }
@@ -198,6 +202,7 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
 
   // Smoothed prolongator, row i: T_i - w D_i^{-1} sum_j A_ij T_j, blocks sorted by aggregate.
   const double w = lambda_ > 0 ? options_.prolongator_weight / lambda_ : 0.0;
+  smoothed_ = w > 0;
   parallel::for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       if (aggregate_[i] < 0) continue;
@@ -232,9 +237,6 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
                                       parallel::Team& team) {
   const std::size_t nn = a.size(), na = members_.size();
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
-  // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row (A P)_i
-  // summed per aggregate in a list kept by each task (once per aggregate a node belongs to: with
-  // a smoothed prolongator, two to three times).
   std::vector<std::vector<BlockCholesky::Entry>>& coarse_rows = coarse_rows_;
   coarse_rows.resize(na);
   ap_.resize(kAggregateTasks);
@@ -246,18 +248,48 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
       const auto add = [&](std::uint32_t col, const Mat6& value) {
         accumulate<&BlockCholesky::Entry::col>(row, col, value);
       };
-      for (const Member& m : members_[ag]) {
-        const std::uint32_t i = m.node;
-        if (!active[i]) continue;
-        ap.clear();
-        for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
-          const std::uint32_t j = a[i].cols[k];
-          if (!usable(j)) continue;
-          for (const Entry& e : prolongator_[j])
-            accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(a[i].blocks[k] * e.block));
+      if (smoothed_) {
+        // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row
+        // (A P)_i summed per aggregate (once per aggregate a node belongs to: two to three times).
+        for (const Member& m : members_[ag]) {
+          const std::uint32_t i = m.node;
+          if (!active[i]) continue;
+          ap.clear();
+          for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+            const std::uint32_t j = a[i].cols[k];
+            if (!usable(j)) continue;
+            for (const Entry& e : prolongator_[j])
+              accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(a[i].blocks[k] * e.block));
+          }
+          const Mat36& pi = prolongator_[i][m.entry].block;
+          for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
         }
-        const Mat36& pi = prolongator_[i][m.entry].block;
-        for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
+      } else {
+        // P = T: P(i, I) = R_i V_I with R_i = rigid_row(x_i, c_I) = [ I3 | -[d_i]x ], d_i =
+        // offset_[i]. Then Ac_IJ = V_I^T W_IJ V_J with
+        //   W_IJ = sum_{i in I} R_i^T Y_iJ,  Y_iJ = sum_{j in J} A_ij R_j = [ A_ij | -A_ij [d_j]x ],
+        // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products of the form above.
+        for (const Member& m : members_[ag]) {
+          const std::uint32_t i = m.node;
+          if (!active[i]) continue;
+          ap.clear();
+          for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+            const std::uint32_t j = a[i].cols[k];
+            if (!usable(j) || aggregate_[j] < 0) continue;
+            Mat36 y;
+            y.leftCols<3>() = a[i].blocks[k];
+            y.rightCols<3>().noalias() = -a[i].blocks[k] * cross_matrix(offset_[j]);
+            accumulate<&Entry::aggregate>(ap, static_cast<std::uint32_t>(aggregate_[j]), y);
+          }
+          const Mat3 di = cross_matrix(offset_[i]);
+          for (const Entry& e : ap) {
+            Mat6 w;
+            w.topRows<3>() = e.block;
+            w.bottomRows<3>().noalias() = di * e.block;
+            add(e.aggregate, w);
+          }
+        }
+        for (BlockCholesky::Entry& e : row) e.block = modes_[ag].transpose() * e.block * modes_[e.col];
       }
       // A dropped direction (zero column of P) gets a unit diagonal: its coarse unknown decouples.
       add(static_cast<std::uint32_t>(ag), Mat6::Zero());
@@ -361,6 +393,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
       members_[id].clear();
       for (const std::uint32_t i : part) {
         aggregate_[i] = static_cast<std::int32_t>(id);
+        offset_[i] = x[i] - c;
         prolongator_[i].assign(1, Entry{id, rigid_row(x[i], c) * t});
         members_[id].push_back({i, 0});
       }
@@ -369,6 +402,21 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   }
   if (made > 0) galerkin(a, active, team);
   return made;
+}
+
+TwoLevelPreconditioner::Mat6 TwoLevelPreconditioner::coarse_block(std::size_t row, std::size_t col) const {
+  if (row < coarse_rows_.size())
+    for (const BlockCholesky::Entry& e : coarse_rows_[row])
+      if (e.col == col) return e.block;
+  return Mat6::Zero();
+}
+
+TwoLevelPreconditioner::Mat36 TwoLevelPreconditioner::prolongator_block(std::uint32_t node,
+                                                                        std::size_t aggregate) const {
+  if (node < prolongator_.size())
+    for (const Entry& e : prolongator_[node])
+      if (e.aggregate == aggregate) return e.block;
+  return Mat36::Zero();
 }
 
 double TwoLevelPreconditioner::growth() const {
@@ -384,6 +432,7 @@ void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, co
   if (aggregate_[node] >= 0) return;  // a reused slot keeps its place
   const auto ag = static_cast<std::uint32_t>(aggregate_[parent]);
   aggregate_[node] = aggregate_[parent];
+  offset_[node] = x - centre_[ag];
   prolongator_[node].assign(1, Entry{ag, rigid_row(x, centre_[ag]) * modes_[ag]});
   members_[ag].push_back({node, 0});
   ++extended_;

@@ -135,6 +135,9 @@ class TwoLevelPreconditioner {
     return i < aggregate_.size() ? aggregate_[i] : -1;
   }
   [[nodiscard]] const TwoLevelOptions& options() const { return options_; }
+  // Block (I, J) of Ac as last computed and block (i, I) of P (zero outside their patterns).
+  [[nodiscard]] Mat6 coarse_block(std::size_t row, std::size_t col) const;
+  [[nodiscard]] Mat36 prolongator_block(std::uint32_t node, std::size_t aggregate) const;
 
  private:
   struct Entry {  // one block P(i, I) of a node row of the prolongator
@@ -171,6 +174,8 @@ class TwoLevelPreconditioner {
   // Per node slot: aggregate (of the tentative prolongator) and row of P, sorted by aggregate.
   std::vector<std::int32_t> aggregate_;
   std::vector<std::vector<Entry>> prolongator_;
+  bool smoothed_ = false;     // P was smoothed at build(); else P = T
+  std::vector<Vec3> offset_;  // per node slot: x_i - c_I when its row of T was made
   // Per aggregate: the nodes with a block in its column of P (slot order, then extend() order),
   // centroid, orthonormalising map V L^{-1/2}.
   std::vector<std::vector<Member>> members_;

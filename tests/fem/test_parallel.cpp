@@ -86,6 +86,76 @@ TEST_CASE("parallel team: the workers take part in a long job") {
   CHECK(by[0] != by[1]);
 }
 
+TEST_CASE("parallel team: run_beside runs the background on a worker, which then joins the foreground") {
+  parallel::Team team(2);
+  const std::thread::id caller = std::this_thread::get_id();
+  std::thread::id background_on;
+  std::atomic<bool> background_done{false};
+  std::atomic<int> started{0};
+  std::vector<std::thread::id> by(2);
+  team.run_beside(
+      [&] {
+        background_on = std::this_thread::get_id();
+        background_done.store(true);
+      },
+      [&] {
+        const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+        while (!background_done.load() && std::chrono::steady_clock::now() < give_up)
+          std::this_thread::yield();
+        // As in the long job above: both chunks can only finish if the worker runs one.
+        team.run(2, [&](std::size_t c) {
+          by[c] = std::this_thread::get_id();
+          started.fetch_add(1);
+          while (started.load() < 2 && std::chrono::steady_clock::now() < give_up) std::this_thread::yield();
+        });
+      });
+  CHECK(background_done.load());
+  CHECK(background_on != caller);
+  CHECK(started.load() == 2);
+  CHECK(by[0] != by[1]);
+}
+
+TEST_CASE(
+    "parallel team: run_beside many times, with the foreground's loops before and after the worker joins") {
+  for (const int threads : {1, 2, 3}) {
+    parallel::Team team(threads);
+    std::vector<int> hits(64);
+    for (int round = 0; round < 20000; ++round) {
+      int background = 0;
+      team.run_beside([&] { ++background; },
+                      [&] {
+                        for (int job = 0; job < 3; ++job) {
+                          const auto n = static_cast<std::size_t>(1 + (round + job) % 64);
+                          team.run(n, [&](std::size_t c) { ++hits[c]; });
+                          for (std::size_t c = 0; c < n; ++c) REQUIRE(hits[c] == 1);
+                          std::fill(hits.begin(), hits.end(), 0);
+                        }
+                      });
+      REQUIRE(background == 1);
+    }
+  }
+}
+
+TEST_CASE("parallel team: run_beside rethrows an exception of either side once both returned") {
+  for (const int threads : {1, 2}) {
+    parallel::Team team(threads);
+    std::atomic<int> ran{0};
+    CHECK_THROWS_WITH_AS(team.run_beside([&] { throw std::runtime_error("background"); },
+                                         [&] { team.run(8, [&](std::size_t) { ran.fetch_add(1); }); }),
+                         "background", std::runtime_error);
+    CHECK(ran.load() == 8);
+    bool background = false;
+    CHECK_THROWS_WITH_AS(
+        team.run_beside([&] { background = true; }, [&] { throw std::runtime_error("foreground"); }),
+        "foreground", std::runtime_error);
+    CHECK(background);
+    // The team is usable afterwards.
+    std::atomic<int> after{0};
+    team.run(10, [&](std::size_t) { after.fetch_add(1); });
+    CHECK(after.load() == 10);
+  }
+}
+
 TEST_CASE("parallel team: an exception from a chunk reaches the caller after every chunk returned") {
   for (const int threads : {1, 2}) {
     parallel::Team team(threads);

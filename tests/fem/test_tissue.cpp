@@ -426,6 +426,8 @@ TEST_CASE("the step is bit-identical run to run and for any thread count") {
     // A local solve large enough to be shared between the threads (fem/tissue.cpp: at 128 nodes).
     CHECK(cut.local_nodes >= 128);
     CHECK(cut.local_iterations > 0);
+    // The cut severed coarse aggregates: the split ran beside the local solve (on two threads).
+    CHECK(cut.aggregates_split > 0);
     cycles += cut.cycle_iterations;
     for (int k = 0; k < 9; ++k) cycles += model.step(0.01).cycle_iterations;
     CHECK(cycles > 0);  // the two-level cycle took part
@@ -540,6 +542,43 @@ TEST_CASE("the region solved first after a cut grows by rings up to local_fracti
   CHECK(static_cast<double>(narrow.local_nodes) <= 0.1 * static_cast<double>(free_narrow));
   CHECK(static_cast<double>(wide.local_nodes) <= 0.3 * static_cast<double>(free_wide));
   CHECK(wide.local_nodes > narrow.local_nodes);
+}
+
+TEST_CASE(
+    "a cut that severs a coarse aggregate: the local region has severing_rings rings, the same motion") {
+  const auto run = [](int severing_rings, double tolerance, StepStats& cut) {
+    TetMesh m = skin_fat_slab(12);
+    const std::vector<Material> mats = prestressed(2, 1.1);
+    TissueModel model(m, mats,
+                      {.tolerance = tolerance,
+                       .max_iterations = 1000,
+                       .severing_rings = severing_rings,
+                       .local_fraction = 0.9});
+    fix_nodes(m, model, [](const Vec3& x) { return std::abs(x.z() + 0.006) < 1e-12; });
+    for (int k = 0; k < 10; ++k) model.step(0.01);
+    make_incision(m, model, 0.008, 0.002);
+    cut = model.step(0.01);
+    for (int k = 0; k < 3; ++k) REQUIRE(model.step(0.01).status == StepStatus::Converged);
+    return m.positions();
+  };
+  for (const double tolerance : {1e-3, 1e-10}) {
+    StepStats wide, narrow;
+    const std::vector<Vec3> x6 = run(6, tolerance, wide), x2 = run(2, tolerance, narrow);
+    CAPTURE(tolerance);
+    CAPTURE(wide.local_nodes);
+    CAPTURE(narrow.local_nodes);
+    CHECK(wide.aggregates_split > 0);
+    CHECK(narrow.aggregates_split == wide.aggregates_split);
+    CHECK(narrow.status == StepStatus::Converged);
+    CHECK(narrow.local_nodes > 0);
+    CHECK(narrow.local_nodes < wide.local_nodes);
+    if (tolerance < 1e-6) {  // solved tightly: the region changes the start, not the solution
+      double gap = 0;
+      for (std::size_t i = 0; i < x6.size(); ++i) gap = std::max(gap, (x6[i] - x2[i]).norm());
+      CAPTURE(gap);
+      CHECK(gap < 1e-12);
+    }
+  }
 }
 
 TEST_CASE("splitting an edge between fixed nodes keeps the new node fixed and the mass") {
