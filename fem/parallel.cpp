@@ -86,7 +86,7 @@ void Team::post_background(Call call, void* context) {
   background_error_ = nullptr;
   background_done_.store(false, std::memory_order_relaxed);
   background_context_.store(context, std::memory_order_relaxed);
-  background_.store(call, std::memory_order_relaxed);
+  background_.store(call, std::memory_order_release);  // with the context and the caller's state
   generation_.store(generation, std::memory_order_seq_cst);
   if (sleeping_workers_.load(std::memory_order_seq_cst) > 0) generation_.notify_all();
 }
@@ -147,8 +147,9 @@ void Team::work(int self) {
     const Job& job = jobs_[seen % 2];
     claim(self, seen, job.call.load(std::memory_order_relaxed), job.context.load(std::memory_order_relaxed),
           job.chunks.load(std::memory_order_relaxed));
-    // run_beside(): published before the generation that announced it, so seen here at the latest
-    // after that generation; the caller waits for it, so at most one is pending.
+    // run_beside(): the call is stored before the generation that announced it, so found here at
+    // the latest after that generation's (empty) job; the caller waits for it, so at most one is
+    // pending. Taken with acquire: the context and the caller's state are visible.
     if (background_.load(std::memory_order_relaxed) != nullptr) {
       if (const Call call = background_.exchange(nullptr, std::memory_order_acquire)) {
         try {
