@@ -268,7 +268,8 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
         // P = T: P(i, I) = R_i V_I with R_i = rigid_row(x_i, c_I) = [ I3 | -[d_i]x ], d_i =
         // offset_[i]. Then Ac_IJ = V_I^T W_IJ V_J with
         //   W_IJ = sum_{i in I} R_i^T Y_iJ,  Y_iJ = sum_{j in J} A_ij R_j = [ A_ij | -A_ij [d_j]x ],
-        // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products of the form above.
+        // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products of the form above (the coarse rows of
+        // the incision in bench/bench_fem.cpp took 1.3-1.8 ms on one thread instead of 2.0-2.4).
         for (const Member& m : members_[ag]) {
           const std::uint32_t i = m.node;
           if (!active[i]) continue;

@@ -52,9 +52,10 @@
 // one set of rigid modes then ties the two sides of the crack together (the smallest eigenvalues
 // of the preconditioned matrix drop, to 0.01-0.02 during a deep incision against 0.035-0.05 with fresh
 // aggregates). split_severed() gives each connected part its own rigid modes and recomputes Ac
-// (3-5 ms, at about one step in ten of a deep incision): during the 3 mm deep incision of
-// bench/bench_fem.cpp a step after a cut then needs 11.6 iterations instead of 14.1 (mass-spring),
-// 4.8 instead of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector
+// (2.5-3.3 ms on one thread, at 7 of the 80 cut steps of the 3 mm deep incision of
+// bench/bench_fem.cpp, of which the coarse rows take 1.3-1.8 ms, the ordering 0.2-0.6 and the
+// factorisation 0.8-1): a step after a cut then needs 11.6 iterations instead of 14.1
+// (mass-spring), 4.8 instead of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector
 // updates are fused into those row loops.
 //
 // Everything is deterministic: aggregates are grown in node slot order, every sum has a fixed order
