@@ -248,40 +248,35 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
       const auto add = [&](std::uint32_t col, const Mat6& value) {
         accumulate<&BlockCholesky::Entry::col>(row, col, value);
       };
-      if (smoothed_) {
-        // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row
-        // (A P)_i summed per aggregate (once per aggregate a node belongs to: two to three times).
-        for (const Member& m : members_[ag]) {
-          const std::uint32_t i = m.node;
-          if (!active[i]) continue;
-          ap.clear();
-          for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
-            const std::uint32_t j = a[i].cols[k];
-            if (!usable(j)) continue;
+      // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row (A P)_i
+      // summed per aggregate (with a smoothed P, once per aggregate a node belongs to: two to three
+      // times). With P = T: P(i, I) = R_i V_I, R_i = rigid_row(x_i, c_I) = [ I3 | -[d_i]x ] with
+      // d_i = offset_[i], so Ac_IJ = V_I^T W_IJ V_J with
+      //   W_IJ = sum_{i in I} R_i^T Y_iJ,  Y_iJ = sum_{j in J} A_ij R_j = [ A_ij | -A_ij [d_j]x ],
+      // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products (the coarse rows of the incision in
+      // bench/bench_fem.cpp took 1.3-1.8 ms on one thread instead of 2.0-2.4).
+      for (const Member& m : members_[ag]) {
+        const std::uint32_t i = m.node;
+        if (!active[i]) continue;
+        ap.clear();
+        for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+          const std::uint32_t j = a[i].cols[k];
+          if (!usable(j)) continue;
+          const Mat3& aij = a[i].blocks[k];
+          if (smoothed_) {
             for (const Entry& e : prolongator_[j])
-              accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(a[i].blocks[k] * e.block));
-          }
-          const Mat36& pi = prolongator_[i][m.entry].block;
-          for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
-        }
-      } else {
-        // P = T: P(i, I) = R_i V_I with R_i = rigid_row(x_i, c_I) = [ I3 | -[d_i]x ], d_i =
-        // offset_[i]. Then Ac_IJ = V_I^T W_IJ V_J with
-        //   W_IJ = sum_{i in I} R_i^T Y_iJ,  Y_iJ = sum_{j in J} A_ij R_j = [ A_ij | -A_ij [d_j]x ],
-        // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products of the form above (the coarse rows of
-        // the incision in bench/bench_fem.cpp took 1.3-1.8 ms on one thread instead of 2.0-2.4).
-        for (const Member& m : members_[ag]) {
-          const std::uint32_t i = m.node;
-          if (!active[i]) continue;
-          ap.clear();
-          for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
-            const std::uint32_t j = a[i].cols[k];
-            if (!usable(j) || aggregate_[j] < 0) continue;
+              accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(aij * e.block));
+          } else if (aggregate_[j] >= 0) {
             Mat36 y;
-            y.leftCols<3>() = a[i].blocks[k];
-            y.rightCols<3>().noalias() = -a[i].blocks[k] * cross_matrix(offset_[j]);
+            y.leftCols<3>() = aij;
+            y.rightCols<3>().noalias() = -aij * cross_matrix(offset_[j]);
             accumulate<&Entry::aggregate>(ap, static_cast<std::uint32_t>(aggregate_[j]), y);
           }
+        }
+        if (smoothed_) {
+          const Mat36& pi = prolongator_[i][m.entry].block;
+          for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
+        } else {
           const Mat3 di = cross_matrix(offset_[i]);
           for (const Entry& e : ap) {
             Mat6 w;
@@ -290,8 +285,9 @@ bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<con
             add(e.aggregate, w);
           }
         }
-        for (BlockCholesky::Entry& e : row) e.block = modes_[ag].transpose() * e.block * modes_[e.col];
       }
+      if (!smoothed_)
+        for (BlockCholesky::Entry& e : row) e.block = modes_[ag].transpose() * e.block * modes_[e.col];
       // A dropped direction (zero column of P) gets a unit diagonal: its coarse unknown decouples.
       add(static_cast<std::uint32_t>(ag), Mat6::Zero());
       for (BlockCholesky::Entry& e : row)
