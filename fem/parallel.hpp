@@ -73,7 +73,8 @@ class Team {
   // Runs background() on one worker while the caller runs foreground(), whose loops may run on
   // this team: the worker joins them once background() has returned. Returns when both have; an
   // exception from either is rethrown here (foreground's first). background() must not run jobs
-  // on this team. Does not allocate. With no worker: background(), then foreground().
+  // on this team, and neither side may call run_beside() on it. Does not allocate. With no
+  // worker: background(), then foreground().
   template <class B, class F>
   void run_beside(B&& background, F&& foreground) {
     using Fn = std::remove_reference_t<B>;

@@ -681,8 +681,8 @@ StepStats TissueModel::step(double dt) {
     coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
   };
   if (local && severs) {
-    // The split (1.7-2.7 ms during the incision of bench/bench_fem.cpp) on one worker, the local
-    // solve on the caller, joined by the worker once the split is done.
+    // The split (2.5-3.3 ms on one thread during the incision of bench/bench_fem.cpp) on one
+    // worker, the local solve on the caller, joined by the worker once the split is done.
     team.run_beside([&] { split(solo_); }, [&] { solve_locally(active_count, target, st, team); });
   } else {
     if (update) split(team);
