@@ -184,6 +184,9 @@ void BM_TissueStepAfterCut(benchmark::State& state) {
     state.counters["cycle_after"] = st.cycle_iterations;
     state.counters["r0_after"] = st.initial_residual;
     state.counters["residual_after"] = st.residual;
+    state.counters["local_after"] = static_cast<double>(st.local_nodes);
+    state.counters["local_its_after"] = st.local_iterations;
+    state.counters["split_after"] = static_cast<double>(st.aggregates_split);
     state.counters["next4_ms"] = 1e3 * next / m;
     state.counters["next4_ratio"] = next / m / before;
     state.counters["cg_next4"] = cg_next / m;
