@@ -44,7 +44,7 @@
 // severs a coarse aggregate, one thread splits it (fem/two_level.hpp) and then joins the local solve,
 // whose region has severing_rings rings: during the incision of bench/bench_fem.cpp those steps
 // (where the blade enters the next column of cells) took 1.5-1.8 times the step before them with
-// six rings beside the split on one thread, 1.45-1.5 times with four rings and the handoff.
+// six rings beside the split on one thread, 1.4-1.6 times with four rings and the handoff.
 //
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
 // a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
