@@ -667,15 +667,16 @@ StepStats TissueModel::step(double dt) {
   if (!std::isfinite(b_norm) || !std::isfinite(rr)) return fail("non-finite forces or velocities");
   st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
   const double target = settings_.tolerance * b_norm;
-  // What the local solve leaves is smooth.
   // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
   // a cut created, and rebuilt at the step after the one that found it stale (too many two-level
   // iterations, too many extended nodes, an aggregate grown too large): the step that made the
   // change does not also pay for the rebuild.
   const bool local = region && std::sqrt(rr) > target;
   const auto split = [&](parallel::Team& split_team) {
-    // An aggregate the cut severed would tie both sides of the crack to one rigid motion.
-    st.aggregates_split = coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
+    // An aggregate the cut severed would tie both sides of the crack to one rigid motion. severs
+    // already searched the touched aggregates: without it there is nothing to split.
+    if (severs)
+      st.aggregates_split = coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
     coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
