@@ -27,7 +27,6 @@ void structure_of(const std::vector<std::vector<BlockCholesky::Entry>>& rows,
 
 void BlockCholesky::analyze(const std::vector<std::vector<Entry>>& rows) {
   const std::size_t n = rows.size();
-  structure_of(rows, pattern_, pattern_cols_);
   // Approximate minimum degree on the graph of the blocks. Eigen's ordering functors return the
   // inverse permutation: entry p is the row eliminated p-th.
   std::vector<Eigen::Triplet<double, int>> links;
@@ -39,30 +38,65 @@ void BlockCholesky::analyze(const std::vector<std::vector<Entry>>& rows) {
   Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
   if (n > 0) Eigen::AMDOrdering<int>()(graph, order);
   std::vector<std::uint32_t> original(n);  // the row eliminated p-th
-  position_.resize(n);
-  for (std::size_t p = 0; p < n; ++p) {
+  for (std::size_t p = 0; p < n; ++p)
     original[p] = static_cast<std::uint32_t>(order.indices()(static_cast<Eigen::Index>(p)));
-    position_[original[p]] = static_cast<std::uint32_t>(p);
+  symbolic(rows, original);
+}
+
+void BlockCholesky::analyze_following(const std::vector<std::vector<Entry>>& rows,
+                                      std::span<const std::uint32_t> follows) {
+  const std::size_t kept = position_.size();
+  if (rows.size() != kept + follows.size()) {
+    analyze(rows);
+    return;
   }
+  std::vector<std::uint32_t> was(kept);
+  for (std::size_t i = 0; i < kept; ++i) was[position_[i]] = static_cast<std::uint32_t>(i);
+  // The added rows after the row they follow, in index order: sorted by (position of that row, index).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> added;
+  for (std::size_t k = 0; k < follows.size(); ++k)
+    added.emplace_back(position_[follows[k]], static_cast<std::uint32_t>(kept + k));
+  std::sort(added.begin(), added.end());
+  std::vector<std::uint32_t> original;
+  original.reserve(rows.size());
+  std::size_t next = 0;
+  for (std::uint32_t p = 0; p < kept; ++p) {
+    original.push_back(was[p]);
+    for (; next < added.size() && added[next].first == p; ++next) original.push_back(added[next].second);
+  }
+  symbolic(rows, original);
+}
+
+// Structure of L for the elimination order original (the row eliminated p-th).
+void BlockCholesky::symbolic(const std::vector<std::vector<Entry>>& rows,
+                             std::span<const std::uint32_t> original) {
+  const std::size_t n = rows.size();
+  structure_of(rows, pattern_, pattern_cols_);
+  position_.resize(n);
+  for (std::size_t p = 0; p < n; ++p) position_[original[p]] = static_cast<std::uint32_t>(p);
   // Structure of L by the elimination tree: column j holds the rows of A below the diagonal and
   // those its children pass up; its parent is its first row.
-  rows_.assign(n, {});
-  std::vector<std::vector<std::uint32_t>> passed(n);
+  // The lists keep their storage from the last analysis (a split re-analyses often).
+  rows_.resize(n);
+  passed_.resize(n);
+  for (std::size_t j = 0; j < n; ++j) {
+    rows_[j].clear();
+    passed_[j].clear();
+  }
   start_.assign(n, 0);
   std::size_t count = 0;
   for (std::uint32_t j = 0; j < n; ++j) {
     std::vector<std::uint32_t>& r = rows_[j];
     for (const Entry& e : rows[original[j]])
       if (position_[e.col] > j) r.push_back(position_[e.col]);
-    r.insert(r.end(), passed[j].begin(), passed[j].end());
-    std::vector<std::uint32_t>().swap(passed[j]);
+    r.insert(r.end(), passed_[j].begin(), passed_[j].end());
     std::sort(r.begin(), r.end());
     r.erase(std::unique(r.begin(), r.end()), r.end());
-    if (!r.empty()) passed[r.front()].insert(passed[r.front()].end(), r.begin() + 1, r.end());
+    if (!r.empty()) passed_[r.front()].insert(passed_[r.front()].end(), r.begin() + 1, r.end());
     start_[j] = count;
     count += 1 + r.size();
   }
-  values_.assign(count, Mat6::Zero());
+  values_.resize(count);  // factorize() sets them
   work_.setZero(static_cast<Eigen::Index>(6 * n));
 }
 

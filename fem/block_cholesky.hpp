@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -35,6 +36,10 @@ class BlockCholesky {
   // Orders the blocks and finds the structure of L from the structure of rows (rows[I] holds the
   // blocks of block row I, in any order; each row must hold its diagonal block). Allocates.
   void analyze(const std::vector<std::vector<Entry>>& rows);
+  // The same, keeping the order of the last analyze(): the rows it saw keep their order and each
+  // row added since (row size() + k) is eliminated right after row follows[k]. For a matrix that
+  // grew by rows split off others, whose couplings are theirs: no reordering, about their fill.
+  void analyze_following(const std::vector<std::vector<Entry>>& rows, std::span<const std::uint32_t> follows);
   // Whether rows has the structure analyze() saw (then factorize() may follow without it).
   [[nodiscard]] bool same_structure(const std::vector<std::vector<Entry>>& rows) const;
   // Numeric factorisation of rows, which must have the analysed structure. Returns false if the
@@ -47,10 +52,13 @@ class BlockCholesky {
   [[nodiscard]] std::size_t fill() const;                              // blocks of L
 
  private:
+  void symbolic(const std::vector<std::vector<Entry>>& rows, std::span<const std::uint32_t> original);
+
   std::vector<std::uint32_t> position_;  // block row I is eliminated as column position_[I]
   // Column j of L: the diagonal block at values_[start_[j]], then the blocks of rows_[j] (sorted
   // positions below j) in order.
   std::vector<std::vector<std::uint32_t>> rows_;
+  std::vector<std::vector<std::uint32_t>> passed_;  // symbolic(): the rows each column receives
   std::vector<std::size_t> start_;
   std::vector<Mat6> values_;
   // The analysed structure, for same_structure(): the sorted block columns of each row of A

@@ -616,8 +616,10 @@ StepStats TissueModel::step(double dt) {
   const bool changed = settings_.local_rings > 0 && !changed_.empty();
   const auto active_count =
       (changed || update) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
-  if (update)
+  if (update) {
     for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
+    coarse_.touch(changed_);  // their coarse rows are out of date (the next split recomputes them)
+  }
   // A cut that severs a coarse aggregate: the split runs beside the local solve (below), whose
   // region then has fewer rings.
   const bool severs = update && coarse_.severs(rows_, active_, changed_);
@@ -682,7 +684,7 @@ StepStats TissueModel::step(double dt) {
     coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
   };
   if (local && severs) {
-    // The split (2.5-3.3 ms on one thread during the incision of bench/bench_fem.cpp) on one
+    // The split (1.3-1.6 ms on one thread during the incision of bench/bench_fem.cpp) on one
     // worker, the local solve on the caller, joined by the worker once the split is done.
     team.run_beside([&] { split(solo_); }, [&] { solve_locally(active_count, target, st, team); });
   } else {

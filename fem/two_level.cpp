@@ -232,76 +232,85 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   return galerkin(a, active, team);
 }
 
+// Block row I of Ac = P^T A P for the current P and A, sorted by column. ap: scratch.
+void TwoLevelPreconditioner::coarse_row(std::size_t ag, std::span<const BlockRow> a,
+                                        std::span<const std::uint8_t> active, std::vector<Entry>& ap,
+                                        std::vector<BlockCholesky::Entry>& row) const {
+  const std::size_t nn = a.size();
+  const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
+  row.clear();
+  const auto add = [&](std::uint32_t col, const Mat6& value) {
+    accumulate<&BlockCholesky::Entry::col>(row, col, value);
+  };
+  // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row (A P)_i
+  // summed per aggregate (with a smoothed P, once per aggregate a node belongs to: two to three
+  // times). With P = T: P(i, I) = R_i V_I, R_i = rigid_row(x_i, c_I) = [ I3 | -[d_i]x ] with
+  // d_i = offset_[i], so Ac_IJ = V_I^T W_IJ V_J with
+  //   W_IJ = sum_{i in I} R_i^T Y_iJ,  Y_iJ = sum_{j in J} A_ij R_j = [ A_ij | -A_ij [d_j]x ],
+  // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products (all coarse rows of the 20-thousand-
+  // tetrahedron slab of bench/bench_fem.cpp: 1.3-1.8 ms on one thread instead of 2.0-2.4).
+  for (const Member& m : members_[ag]) {
+    const std::uint32_t i = m.node;
+    if (!active[i]) continue;
+    ap.clear();
+    for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
+      const std::uint32_t j = a[i].cols[k];
+      if (!usable(j)) continue;
+      const Mat3& aij = a[i].blocks[k];
+      if (smoothed_) {
+        for (const Entry& e : prolongator_[j])
+          accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(aij * e.block));
+      } else if (aggregate_[j] >= 0) {
+        Mat36 y;
+        y.leftCols<3>() = aij;
+        y.rightCols<3>().noalias() = -aij * cross_matrix(offset_[j]);
+        accumulate<&Entry::aggregate>(ap, static_cast<std::uint32_t>(aggregate_[j]), y);
+      }
+    }
+    if (smoothed_) {
+      const Mat36& pi = prolongator_[i][m.entry].block;
+      for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
+    } else {
+      const Mat3 di = cross_matrix(offset_[i]);
+      for (const Entry& e : ap) {
+        Mat6 w;
+        w.topRows<3>() = e.block;
+        w.bottomRows<3>().noalias() = di * e.block;
+        add(e.aggregate, w);
+      }
+    }
+  }
+  if (!smoothed_)
+    for (BlockCholesky::Entry& e : row) e.block = modes_[ag].transpose() * e.block * modes_[e.col];
+  // A dropped direction (zero column of P) gets a unit diagonal: its coarse unknown decouples.
+  add(static_cast<std::uint32_t>(ag), Mat6::Zero());
+  for (BlockCholesky::Entry& e : row)
+    if (e.col == ag)
+      for (int k = 0; k < 6; ++k)
+        if (e.block(k, k) == 0.0) e.block(k, k) = 1.0;
+  std::sort(row.begin(), row.end(),
+            [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
+}
+
 // Ac = P^T A P for the current P and A, and its factorisation.
 bool TwoLevelPreconditioner::galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                                       parallel::Team& team) {
-  const std::size_t nn = a.size(), na = members_.size();
-  const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
-  std::vector<std::vector<BlockCholesky::Entry>>& coarse_rows = coarse_rows_;
-  coarse_rows.resize(na);
+  const std::size_t na = members_.size();
+  coarse_rows_.resize(na);
   ap_.resize(kAggregateTasks);
   for_ranges(team, na, [&](std::size_t task, std::size_t begin, std::size_t end) {
-    std::vector<Entry>& ap = ap_[task];
-    for (std::size_t ag = begin; ag < end; ++ag) {
-      std::vector<BlockCholesky::Entry>& row = coarse_rows[ag];
-      row.clear();
-      const auto add = [&](std::uint32_t col, const Mat6& value) {
-        accumulate<&BlockCholesky::Entry::col>(row, col, value);
-      };
-      // Block row I of Ac = sum over the members i of I of P(i, I)^T (A P)_i, with the row (A P)_i
-      // summed per aggregate (with a smoothed P, once per aggregate a node belongs to: two to three
-      // times). With P = T: P(i, I) = R_i V_I, R_i = rigid_row(x_i, c_I) = [ I3 | -[d_i]x ] with
-      // d_i = offset_[i], so Ac_IJ = V_I^T W_IJ V_J with
-      //   W_IJ = sum_{i in I} R_i^T Y_iJ,  Y_iJ = sum_{j in J} A_ij R_j = [ A_ij | -A_ij [d_j]x ],
-      // and R_i^T Y = [ Y ; [d_i]x Y ]: half the products (the coarse rows of the incision in
-      // bench/bench_fem.cpp took 1.3-1.8 ms on one thread instead of 2.0-2.4).
-      for (const Member& m : members_[ag]) {
-        const std::uint32_t i = m.node;
-        if (!active[i]) continue;
-        ap.clear();
-        for (std::size_t k = 0; k < a[i].cols.size(); ++k) {
-          const std::uint32_t j = a[i].cols[k];
-          if (!usable(j)) continue;
-          const Mat3& aij = a[i].blocks[k];
-          if (smoothed_) {
-            for (const Entry& e : prolongator_[j])
-              accumulate<&Entry::aggregate>(ap, e.aggregate, Mat36(aij * e.block));
-          } else if (aggregate_[j] >= 0) {
-            Mat36 y;
-            y.leftCols<3>() = aij;
-            y.rightCols<3>().noalias() = -aij * cross_matrix(offset_[j]);
-            accumulate<&Entry::aggregate>(ap, static_cast<std::uint32_t>(aggregate_[j]), y);
-          }
-        }
-        if (smoothed_) {
-          const Mat36& pi = prolongator_[i][m.entry].block;
-          for (const Entry& e : ap) add(e.aggregate, pi.transpose() * e.block);
-        } else {
-          const Mat3 di = cross_matrix(offset_[i]);
-          for (const Entry& e : ap) {
-            Mat6 w;
-            w.topRows<3>() = e.block;
-            w.bottomRows<3>().noalias() = di * e.block;
-            add(e.aggregate, w);
-          }
-        }
-      }
-      if (!smoothed_)
-        for (BlockCholesky::Entry& e : row) e.block = modes_[ag].transpose() * e.block * modes_[e.col];
-      // A dropped direction (zero column of P) gets a unit diagonal: its coarse unknown decouples.
-      add(static_cast<std::uint32_t>(ag), Mat6::Zero());
-      for (BlockCholesky::Entry& e : row)
-        if (e.col == ag)
-          for (int k = 0; k < 6; ++k)
-            if (e.block(k, k) == 0.0) e.block(k, k) = 1.0;
-      std::sort(row.begin(), row.end(),
-                [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
-    }
+    for (std::size_t ag = begin; ag < end; ++ag) coarse_row(ag, a, active, ap_[task], coarse_rows_[ag]);
   });
-  if (!cholesky_.same_structure(coarse_rows)) cholesky_.analyze(coarse_rows);
+  outdated_.assign(na, 0);
+  if (!cholesky_.same_structure(coarse_rows_)) cholesky_.analyze(coarse_rows_);
+  return factorize();
+}
+
+bool TwoLevelPreconditioner::factorize() {
+  const std::size_t na = members_.size();
   rc_.setZero(static_cast<Eigen::Index>(6 * na));
   ec_.setZero(static_cast<Eigen::Index>(6 * na));
-  factored_ = na > 0 && lambda_ > 0 && cholesky_.factorize(coarse_rows);
+  factored_ = na > 0 && lambda_ > 0 && cholesky_.factorize(coarse_rows_);
   return factored_;
 }
 
@@ -347,6 +356,11 @@ void TwoLevelPreconditioner::connected_parts(std::uint32_t ag, std::span<const B
     for (const std::uint32_t i : part) seen_[i] = 0;
 }
 
+void TwoLevelPreconditioner::touch(std::span<const std::uint32_t> nodes) {
+  for (const std::uint32_t ag : touched(nodes))
+    if (ag < outdated_.size()) outdated_[ag] = 1;
+}
+
 bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                                     std::span<const std::uint32_t> nodes) {
   if (options_.prolongator_weight > 0 || members_.empty()) return false;
@@ -365,12 +379,15 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const Vec3> x, parallel::Team& team) {
   if (options_.prolongator_weight > 0 || members_.empty()) return 0;
   reserve_nodes(a.size());
-  std::size_t made = 0;
+  const std::size_t before = members_.size();
+  std::vector<std::uint32_t> parts_of;  // the aggregates split (ids kept by their first part)
+  std::vector<std::uint32_t> follows;   // per added aggregate: the one it was split from
   Parts found;
   for (const std::uint32_t ag : touched(nodes)) {
     connected_parts(ag, a, active, found);
     auto& parts = found.parts;
     if (parts.size() < 2) continue;
+    parts_of.push_back(ag);
     // The inactive members have no coarse part: they stay with the first one.
     parts.front().insert(parts.front().end(), found.rest.begin(), found.rest.end());
     for (std::size_t k = 0; k < parts.size(); ++k) {
@@ -380,7 +397,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
         built_size_.emplace_back();
         centre_.emplace_back();
         modes_.emplace_back();
-        ++made;
+        follows.push_back(ag);
       }
       std::vector<std::uint32_t>& part = parts[k];
       std::sort(part.begin(), part.end());
@@ -397,7 +414,60 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
       built_size_[id] = static_cast<std::uint32_t>(members_[id].size());
     }
   }
-  if (made > 0) galerkin(a, active, team);
+  const std::size_t made = members_.size() - before;
+  if (made == 0) return 0;
+  if (coarse_rows_.size() != before || cholesky_.size() != before) {
+    galerkin(a, active, team);
+    return made;
+  }
+  // Ac is updated, not recomputed: the block rows (and columns) of the parts, of the aggregates a
+  // cut changed since their rows were computed (touch(), extend()) and of their neighbours are
+  // recomputed from the current A; the others keep their (stale) values, as after extend(). The
+  // ring of neighbours keeps fresh blocks of grown aggregates away from stale ones (mixed, they
+  // need not be positive definite); a matrix that does not factorise is recomputed whole. The
+  // elimination order is kept, each new part right after the aggregate it was split from.
+  outdated_.resize(members_.size(), 1);
+  for (const std::uint32_t ag : parts_of) outdated_[ag] = 1;
+  std::vector<std::uint8_t> is_changed = outdated_;
+  for (std::uint32_t ag = 0; ag < members_.size(); ++ag) {
+    if (!outdated_[ag]) continue;
+    for (const Member& m : members_[ag])
+      for (const std::uint32_t j : a[m.node].cols)
+        if (j < a.size() && active[j] && aggregate_[j] >= 0)
+          is_changed[static_cast<std::uint32_t>(aggregate_[j])] = 1;
+  }
+  std::vector<std::uint32_t> changed;
+  for (std::uint32_t ag = 0; ag < members_.size(); ++ag)
+    if (is_changed[ag]) changed.push_back(ag);
+  // The other rows coupled to those, before or after: their blocks in the recomputed columns are
+  // replaced by the transposes of the recomputed rows.
+  std::vector<std::uint32_t> border;
+  for (const std::uint32_t ag : changed)
+    if (ag < before)
+      for (const BlockCholesky::Entry& e : coarse_rows_[ag])
+        if (!is_changed[e.col]) border.push_back(e.col);
+  coarse_rows_.resize(members_.size());
+  ap_.resize(kAggregateTasks);
+  for_ranges(team, changed.size(), [&](std::size_t task, std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k)
+      coarse_row(changed[k], a, active, ap_[task], coarse_rows_[changed[k]]);
+  });
+  for (const std::uint32_t id : changed)
+    for (const BlockCholesky::Entry& e : coarse_rows_[id])
+      if (!is_changed[e.col]) border.push_back(e.col);
+  std::sort(border.begin(), border.end());
+  border.erase(std::unique(border.begin(), border.end()), border.end());
+  for (const std::uint32_t j : border)
+    std::erase_if(coarse_rows_[j], [&](const BlockCholesky::Entry& e) { return is_changed[e.col] != 0; });
+  for (const std::uint32_t id : changed)
+    for (const BlockCholesky::Entry& e : coarse_rows_[id])
+      if (!is_changed[e.col]) coarse_rows_[e.col].push_back({id, e.block.transpose()});
+  for (const std::uint32_t j : border)
+    std::sort(coarse_rows_[j].begin(), coarse_rows_[j].end(),
+              [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
+  std::fill(outdated_.begin(), outdated_.end(), 0);
+  cholesky_.analyze_following(coarse_rows_, follows);
+  if (!factorize()) galerkin(a, active, team);
   return made;
 }
 
@@ -432,6 +502,7 @@ void TwoLevelPreconditioner::extend(std::uint32_t node, std::uint32_t parent, co
   offset_[node] = x - centre_[ag];
   prolongator_[node].assign(1, Entry{ag, rigid_row(x, centre_[ag]) * modes_[ag]});
   members_[ag].push_back({node, 0});
+  outdated_[ag] = 1;
   ++extended_;
 }
 

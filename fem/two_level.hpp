@@ -51,10 +51,12 @@
 // One thing a cut does that a stale coarse operator cannot absorb: it severs an aggregate, whose
 // one set of rigid modes then ties the two sides of the crack together (the smallest eigenvalues
 // of the preconditioned matrix drop, to 0.01-0.02 during a deep incision against 0.035-0.05 with fresh
-// aggregates). split_severed() gives each connected part its own rigid modes and recomputes Ac
-// (2.5-3.3 ms on one thread, at 7 of the 80 cut steps of the 3 mm deep incision of
-// bench/bench_fem.cpp, of which the coarse rows take 1.3-1.8 ms, the ordering 0.2-0.6 and the
-// factorisation 0.8-1): a step after a cut then needs 11.6 iterations instead of 14.1
+// aggregates). split_severed() gives each connected part its own rigid modes and updates Ac: the
+// block rows of the parts, of the aggregates cuts changed since their rows were computed and of
+// their neighbours are recomputed (a fifth of the rows), the elimination order is kept and Ac
+// refactorised. At 7 of the 80 cut steps of the 3 mm deep incision of bench/bench_fem.cpp that
+// takes 1.3-1.6 ms on one thread (the factorisation 0.8-1.1 of it), where recomputing all rows
+// and reordering took 2.5-3.3: a step after a cut then needs 11.6 iterations instead of 14.1
 // (mass-spring), 4.8 instead of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector
 // updates are fused into those row loops.
 //
@@ -100,11 +102,16 @@ class TwoLevelPreconditioner {
 
   // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
-  // nodes at x, and recomputes Ac = P^T A P when it did. Returns the number of aggregates added.
-  // Not with a smoothed prolongator (returns 0). Allocates.
+  // nodes at x, and then updates Ac (above): where it recomputes blocks they are those of
+  // P^T A P, the others are kept. Returns the number of aggregates added. Not with a smoothed
+  // prolongator (returns 0). Allocates.
   std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                             std::span<const std::uint32_t> nodes, std::span<const Vec3> x,
                             parallel::Team& team);
+
+  // The rows of A of `nodes` changed (a cut rebuilt them): the block rows of Ac of their aggregates
+  // are out of date (split_severed() recomputes those).
+  void touch(std::span<const std::uint32_t> nodes);
 
   // Whether split_severed() would split an aggregate (without changing anything).
   bool severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
@@ -157,7 +164,10 @@ class TwoLevelPreconditioner {
               bool from_zero, parallel::Team& team);
   void coarse_correct(std::span<const std::uint8_t> active, const std::vector<Vec3>& r, std::vector<Vec3>& z,
                       parallel::Team& team);
+  void coarse_row(std::size_t ag, std::span<const BlockRow> a, std::span<const std::uint8_t> active,
+                  std::vector<Entry>& ap, std::vector<BlockCholesky::Entry>& row) const;
   bool galerkin(std::span<const BlockRow> a, std::span<const std::uint8_t> active, parallel::Team& team);
+  bool factorize();  // of coarse_rows_, as analysed
   void reserve_nodes(std::size_t n);
   struct Parts {
     std::vector<std::vector<std::uint32_t>> parts;  // connected parts of the active members
@@ -181,6 +191,8 @@ class TwoLevelPreconditioner {
   // centroid, orthonormalising map V L^{-1/2}.
   std::vector<std::vector<Member>> members_;
   std::vector<std::uint32_t> built_size_;  // per aggregate: its member count at build() or split
+  // Per aggregate: its members or their rows of A changed since its block row of Ac was computed.
+  std::vector<std::uint8_t> outdated_;
   std::vector<Vec3> centre_;
   std::vector<Mat6> modes_;
   // Build scratch: tentative prolongator rows by node slot, block rows of Ac, and per task over

@@ -413,6 +413,82 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
   CHECK(smoothed.pre.split_severed(cut.a, cut.active, all, cut.mesh.positions(), team(1)) == 0);
 }
 
+TEST_CASE("two-level: a split recomputes the coarse operator near the cut and keeps it elsewhere") {
+  // The cut of the test above on a larger box, reported by the rows it changed only.
+  const System s = make_system({16, 16, 2});
+  System cut = s;
+  constexpr double kPlane = 0.0169;
+  const auto side = [&](std::uint32_t i) { return cut.mesh.positions()[i].x() > kPlane; };
+  std::vector<std::uint32_t> changed;
+  for (std::uint32_t i = 0; i < cut.a.size(); ++i) {
+    BlockRow& row = cut.a[i];
+    BlockRow kept;
+    for (std::size_t k = 0; k < row.cols.size(); ++k)
+      if (side(row.cols[k]) == side(i)) {
+        if (row.cols[k] == i) kept.diag = static_cast<std::uint32_t>(kept.cols.size());
+        kept.cols.push_back(row.cols[k]);
+        kept.blocks.push_back(row.blocks[k]);
+      }
+    if (kept.cols.size() != row.cols.size()) changed.push_back(i);
+    row = kept;
+    for (Mat3& block : row.blocks) block *= 1.001;  // and A changed a little everywhere, as each step
+  }
+  Cycle c(s, 1);
+  const std::size_t before = c.pre.aggregate_count();
+  std::vector<TwoLevelPreconditioner::Mat6> old(before * before);
+  for (std::size_t i = 0; i < before; ++i)
+    for (std::size_t j = 0; j < before; ++j) old[i * before + j] = c.pre.coarse_block(i, j);
+  REQUIRE(c.pre.split_severed(cut.a, cut.active, changed, cut.mesh.positions(), team(2)) > 0);
+  REQUIRE(c.pre.factored());
+  const std::size_t na = c.pre.aggregate_count();
+
+  // Recomputed: the aggregates holding a changed row (among them the parts) and those coupled to
+  // their members. Their blocks are those of P^T A P for the cut A, the others those of before.
+  std::vector<std::uint8_t> recomputed(na, 0);
+  for (const std::uint32_t i : changed)
+    if (cut.active[i]) recomputed[static_cast<std::size_t>(c.pre.aggregate(i))] = 1;
+  const std::vector<std::uint8_t> holding = recomputed;
+  for (std::uint32_t i = 0; i < cut.a.size(); ++i)
+    if (cut.active[i] && holding[static_cast<std::size_t>(c.pre.aggregate(i))])
+      for (const std::uint32_t j : cut.a[i].cols)
+        if (cut.active[j]) recomputed[static_cast<std::size_t>(c.pre.aggregate(j))] = 1;
+  std::vector<std::vector<std::pair<std::size_t, TwoLevelPreconditioner::Mat36>>> p(cut.a.size());
+  for (std::uint32_t i = 0; i < cut.a.size(); ++i)
+    if (cut.active[i]) {
+      const auto ag = static_cast<std::size_t>(c.pre.aggregate(i));
+      p[i].emplace_back(ag, c.pre.prolongator_block(i, ag));
+    }
+  std::vector<TwoLevelPreconditioner::Mat6> fresh(na * na, TwoLevelPreconditioner::Mat6::Zero());
+  for (std::uint32_t i = 0; i < cut.a.size(); ++i)
+    for (std::size_t k = 0; k < cut.a[i].cols.size(); ++k)
+      for (const auto& [ai, pi] : p[i])
+        for (const auto& [aj, pj] : p[cut.a[i].cols[k]])
+          fresh[ai * na + aj] += pi.transpose() * cut.a[i].blocks[k] * pj;
+  double scale = 0;
+  for (const auto& e : fresh) scale = std::max(scale, e.cwiseAbs().maxCoeff());
+  int kept = 0, coupled_kept = 0, fresh_count = 0;
+  double worst = 0, asymmetry = 0;
+  for (std::size_t i = 0; i < na; ++i)
+    for (std::size_t j = 0; j < na; ++j) {
+      const TwoLevelPreconditioner::Mat6 block = c.pre.coarse_block(i, j);
+      asymmetry = std::max(asymmetry, (block - c.pre.coarse_block(j, i).transpose()).cwiseAbs().maxCoeff());
+      if (recomputed[i] || recomputed[j]) {
+        worst = std::max(worst, (block - fresh[i * na + j]).cwiseAbs().maxCoeff());
+        ++fresh_count;
+      } else {
+        CHECK(block == old[i * before + j]);
+        ++kept;
+        coupled_kept += (i != j && !block.isZero(0)) ? 1 : 0;
+      }
+    }
+  CAPTURE(fresh_count);
+  CAPTURE(kept);
+  CHECK(worst <= 1e-12 * scale);
+  CHECK(asymmetry <= 1e-12 * scale);
+  CHECK(coupled_kept > 0);  // the box is large enough to keep some blocks
+  check_symmetric_positive(cut, c, 1, 17, 5);
+}
+
 TEST_CASE("two-level: the cycle is bit-identical for one and two threads") {
   const System s = make_system({10, 10, 3});
   for (const TwoLevelOptions& options : kVariants) {
@@ -490,6 +566,49 @@ TEST_CASE("block Cholesky: solves a matrix of 6 x 6 blocks, with the fill of sca
   x = b;
   chol.solve(x);
   CHECK((2.0 * (a * x) - b).norm() < 1e-12 * b.norm());
+
+  // Row 40 split in two, as a coarse aggregate severed by a cut: the new row 144 takes its links
+  // to the right and below, and comes right after row 40 in the kept elimination order.
+  {
+    auto split_rows = rows;
+    const std::uint32_t from = 40, added = kBlocks;
+    split_rows.emplace_back();
+    auto& source = split_rows[from];
+    for (std::size_t k = 0; k < source.size();) {
+      const std::uint32_t col = source[k].col;
+      if (col == from + 1 || col == from + kSide) {
+        split_rows[added].push_back({col, source[k].block});
+        for (auto& e : split_rows[col])
+          if (e.col == from) e.col = added;
+        source.erase(source.begin() + static_cast<std::ptrdiff_t>(k));
+      } else {
+        ++k;
+      }
+    }
+    split_rows[added].push_back({added, Mat6(10.0 * Mat6::Identity())});
+    const std::size_t fill = chol.fill();
+    BlockCholesky kept = chol;
+    const std::array<std::uint32_t, 1> follows = {from};
+    kept.analyze_following(split_rows, follows);
+    CHECK(kept.same_structure(split_rows));
+    REQUIRE(kept.factorize(split_rows));
+    std::vector<Eigen::Triplet<double>> split_entries;
+    for (std::size_t i = 0; i < split_rows.size(); ++i)
+      for (const auto& e : split_rows[i])
+        for (int r = 0; r < 6; ++r)
+          for (int c = 0; c < 6; ++c)
+            split_entries.emplace_back(6 * static_cast<int>(i) + r, 6 * static_cast<int>(e.col) + c,
+                                       e.block(r, c));
+    Eigen::SparseMatrix<double> split_a(n + 6, n + 6);
+    split_a.setFromTriplets(split_entries.begin(), split_entries.end());
+    const Eigen::VectorXd sb = Eigen::VectorXd::LinSpaced(n + 6, 1.0, -1.0);
+    Eigen::VectorXd sx = sb;
+    kept.solve(sx);
+    CHECK((split_a * sx - sb).norm() < 1e-12 * sb.norm());
+    CAPTURE(fill);
+    CAPTURE(kept.fill());
+    CHECK(kept.fill() <= fill + fill / 10);  // about the fill of the order it kept
+  }
 
   // A new block changes the structure; an indefinite matrix is refused.
   link(0, kBlocks - 1, 0);
