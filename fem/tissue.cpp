@@ -61,6 +61,7 @@ void TissueModel::grow() {
   }
   const std::size_t chunks = std::max(chunk_count(nn), chunk_count(nt));
   if (partial_.size() < 3 * chunks) partial_.resize(3 * chunks, 0.0);
+  if (solo_partial_.size() < 3 * chunks) solo_partial_.resize(3 * chunks, 0.0);
 }
 
 void TissueModel::mark_tet_nodes(std::uint32_t t) {
@@ -683,25 +684,32 @@ StepStats TissueModel::step(double dt) {
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
     coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
   };
+  const bool rebuild = two_level && (coarse_stale_ || coarse_regroup_) && !update;
+  const auto build = [&](parallel::Team& build_team, std::vector<double>& build_partial) {
+    coarse_.set_options(settings_.two_level);
+    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), build_partial, build_team, coarse_stale_);
+    coarse_stale_ = false;
+    coarse_regroup_ = false;
+    st.preconditioner_built = true;
+  };
   if (local && severs) {
     // The split (1.3-1.6 ms on one thread during the incision of bench/bench_fem.cpp) on one
     // worker, the local solve on the caller, joined by the worker once the split is done.
     team.run_beside([&] { split(solo_); }, [&] { solve_locally(active_count, target, st, team); });
+  } else if (local && rebuild) {
+    // A rebuild (the regroups during that incision: 3.3-4 ms on one thread, the local solve 2-5)
+    // does not need the local solve's result either: the same.
+    team.run_beside([&] { build(solo_, solo_partial_); },
+                    [&] { solve_locally(active_count, target, st, team); });
   } else {
     if (update) split(team);
     if (local) solve_locally(active_count, target, st, team);
+    if (rebuild) build(team, partial_);
   }
   changed_.clear();
   born_.clear();
   if (local) rr = parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
   if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
-  if (two_level && (coarse_stale_ || coarse_regroup_) && !update) {
-    coarse_.set_options(settings_.two_level);
-    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), partial_, team, coarse_stale_);
-    coarse_stale_ = false;
-    coarse_regroup_ = false;
-    st.preconditioner_built = true;
-  }
   // z = B r; returns r . z.
   bool cycle = false;  // the two-level cycle is in use
   const auto precondition = [&] {

@@ -44,7 +44,9 @@
 // severs a coarse aggregate, one thread splits it (fem/two_level.hpp) and then joins the local solve,
 // whose region has severing_rings rings: during the incision of bench/bench_fem.cpp those steps
 // (where the blade enters the next column of cells) took 1.5-1.8 times the step before them with
-// six rings beside the split on one thread, 1.4-1.6 times with four rings and the handoff.
+// six rings beside the split on one thread, 1.4-1.6 times with four rings and the handoff, and
+// 1.3-1.45 with the split's update of the coarse operator. A coarse rebuild due at a step with a
+// local solve runs beside it the same way.
 //
 // Passenger nodes: a free node none of whose elements reaches the rest quality support_quality (e.g.
 // a cut node at the clamp distance from a vertex) has mass but no stiffness (its elements are inert)
@@ -256,7 +258,10 @@ class TissueModel {
   std::vector<double> stiffness_factor_;  // per region: dt beta + dt^2, the factor of K in A [s^2]
   std::vector<double> partial_;
   std::unique_ptr<parallel::Team> team_;
-  parallel::Team solo_{1};  // the split's loops, on the worker that runs it beside the local solve
+  // The loops of a split or rebuild on the worker that runs it beside the local solve, and the
+  // rebuild's chunk sums.
+  parallel::Team solo_{1};
+  std::vector<double> solo_partial_;
 };
 
 }  // namespace scalpel
