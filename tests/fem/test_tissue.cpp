@@ -445,6 +445,25 @@ TEST_CASE("the step is bit-identical run to run and for any thread count") {
   CHECK(results[1] == results[2]);
 }
 
+TEST_CASE("a two-level cycle found not positive definite is rebuilt with a fresh lambda estimate") {
+  // Built at a step so short that A is nearly the mass matrix (lambda_max(D^-1 A) near 1), the
+  // smoother's bound is far below the spectrum of a 1/60 s step: the cycle is indefinite there.
+  TetMesh m = skin_fat_slab(12);
+  const std::vector<Material> mats = prestressed(2, 1.1);
+  TissueModel model(m, mats, {.two_level_after = 0});
+  fix_nodes(m, model, [](const Vec3& x) { return std::abs(x.z() + 0.006) < 1e-12; });
+  const StepStats first = model.step(1e-7);
+  REQUIRE(first.preconditioner_built);
+  const StepStats st = model.step(1.0 / 60);
+  CHECK(st.status == StepStatus::Converged);
+  CHECK(st.preconditioner_built);
+  CAPTURE(st.cg_iterations);
+  CAPTURE(st.cycle_iterations);
+  // All with the cycle: found indefinite (here after 57 iterations), rebuilt, and kept (before,
+  // the step went on with block-Jacobi).
+  CHECK(st.cycle_iterations == st.cg_iterations);
+}
+
 TEST_CASE("after an incision the two-level preconditioner needs far fewer CG iterations") {
   std::vector<StepStats> after;
   for (const Preconditioner pre : {Preconditioner::BlockJacobi, Preconditioner::TwoLevel}) {
