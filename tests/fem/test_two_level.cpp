@@ -353,13 +353,17 @@ TEST_CASE("two-level: growth() reports the most grown aggregate, and a rebuild m
   CHECK(gap < 0.5 * norm);
 }
 
-TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
-  // A cut through the box along x = 16.9 mm: the couplings across it are removed (A keeps its
-  // two diagonal parts, so it stays positive definite). Aggregates grown before straddle it.
-  const System s = make_system({8, 8, 2});
+namespace {
+
+constexpr double kCutPlane = 0.0169;  // [m] between two planes of nodes
+
+// s cut through along x = kCutPlane: the couplings across the plane are removed (A keeps its two
+// diagonal parts, so it stays positive definite) and every block is multiplied by `scale` (A
+// changes everywhere from step to step). changed: the rows that lost a coupling.
+System cut_system(const System& s, double scale, std::vector<std::uint32_t>& changed) {
   System cut = s;
-  constexpr double kPlane = 0.0169;
-  const auto side = [&](std::uint32_t i) { return cut.mesh.positions()[i].x() > kPlane; };
+  const auto side = [&](std::uint32_t i) { return cut.mesh.positions()[i].x() > kCutPlane; };
+  changed.clear();
   for (std::uint32_t i = 0; i < cut.a.size(); ++i) {
     BlockRow& row = cut.a[i];
     BlockRow kept;
@@ -367,10 +371,23 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
       if (side(row.cols[k]) == side(i)) {
         if (row.cols[k] == i) kept.diag = static_cast<std::uint32_t>(kept.cols.size());
         kept.cols.push_back(row.cols[k]);
-        kept.blocks.push_back(row.blocks[k]);
+        kept.blocks.push_back(scale * row.blocks[k]);
       }
+    if (kept.cols.size() != row.cols.size()) changed.push_back(i);
     row = kept;
+    if (cut.active[i]) cut.diag_inverse[i] = row.blocks[row.diag].inverse();
   }
+  return cut;
+}
+
+}  // namespace
+
+TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
+  // A cut through the box: aggregates grown before straddle it.
+  const System s = make_system({8, 8, 2});
+  std::vector<std::uint32_t> changed;
+  const System cut = cut_system(s, 1.0, changed);
+  const auto side = [&](std::uint32_t i) { return cut.mesh.positions()[i].x() > kCutPlane; };
   const auto straddling = [&](const TwoLevelPreconditioner& pre) {
     int count = 0;
     for (std::uint32_t i = 0; i < cut.a.size(); ++i)
@@ -414,25 +431,11 @@ TEST_CASE("two-level: an aggregate a cut severs is split into its parts") {
 }
 
 TEST_CASE("two-level: a split recomputes the coarse operator near the cut and keeps it elsewhere") {
-  // The cut of the test above on a larger box, reported by the rows it changed only.
+  // The cut of the test above on a larger box, reported by the rows it changed only, with A
+  // changed a little everywhere.
   const System s = make_system({16, 16, 2});
-  System cut = s;
-  constexpr double kPlane = 0.0169;
-  const auto side = [&](std::uint32_t i) { return cut.mesh.positions()[i].x() > kPlane; };
   std::vector<std::uint32_t> changed;
-  for (std::uint32_t i = 0; i < cut.a.size(); ++i) {
-    BlockRow& row = cut.a[i];
-    BlockRow kept;
-    for (std::size_t k = 0; k < row.cols.size(); ++k)
-      if (side(row.cols[k]) == side(i)) {
-        if (row.cols[k] == i) kept.diag = static_cast<std::uint32_t>(kept.cols.size());
-        kept.cols.push_back(row.cols[k]);
-        kept.blocks.push_back(row.blocks[k]);
-      }
-    if (kept.cols.size() != row.cols.size()) changed.push_back(i);
-    row = kept;
-    for (Mat3& block : row.blocks) block *= 1.001;  // and A changed a little everywhere, as each step
-  }
+  const System cut = cut_system(s, 1.001, changed);
   Cycle c(s, 1);
   const std::size_t before = c.pre.aggregate_count();
   std::vector<TwoLevelPreconditioner::Mat6> old(before * before);
@@ -487,6 +490,19 @@ TEST_CASE("two-level: a split recomputes the coarse operator near the cut and ke
   CHECK(asymmetry <= 1e-12 * scale);
   CHECK(coupled_kept > 0);  // the box is large enough to keep some blocks
   check_symmetric_positive(cut, c, 1, 17, 5);
+}
+
+TEST_CASE("two-level: a split whose updated coarse operator does not factorise recomputes it whole") {
+  // A a thousand times stiffer everywhere since the build: the recomputed blocks no longer fit the
+  // kept ones. The split then recomputes every block.
+  const System s = make_system({16, 16, 2});
+  std::vector<std::uint32_t> changed;
+  const System cut = cut_system(s, 1000.0, changed);
+  Cycle c(s, 1);
+  REQUIRE(c.pre.split_severed(cut.a, cut.active, changed, cut.mesh.positions(), team(2)) > 0);
+  CHECK(c.pre.factored());
+  check_galerkin(cut, c.pre);
+  check_symmetric_positive(cut, c, 1, 19, 5);
 }
 
 TEST_CASE("two-level: the cycle is bit-identical for one and two threads") {
