@@ -363,7 +363,7 @@ void TwoLevelPreconditioner::touch(std::span<const std::uint32_t> nodes) {
 
 bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                                     std::span<const std::uint32_t> nodes) {
-  if (options_.prolongator_weight > 0 || members_.empty()) return false;
+  if (smoothed_ || members_.empty()) return false;
   reserve_nodes(a.size());
   Parts found;
   for (const std::uint32_t ag : touched(nodes)) {
@@ -377,7 +377,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const std::uint8_t> active,
                                                   std::span<const std::uint32_t> nodes,
                                                   std::span<const Vec3> x, parallel::Team& team) {
-  if (options_.prolongator_weight > 0 || members_.empty()) return 0;
+  if (smoothed_ || members_.empty()) return 0;
   reserve_nodes(a.size());
   const std::size_t before = members_.size();
   std::vector<std::uint32_t> parts_of;  // the aggregates split (ids kept by their first part)

@@ -103,8 +103,8 @@ class TwoLevelPreconditioner {
   // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
   // nodes at x, and then updates Ac (above): where it recomputes blocks they are those of
-  // P^T A P, the others are kept. Returns the number of aggregates added. Not with a smoothed
-  // prolongator (returns 0). Allocates.
+  // P^T A P, the others are kept. Returns the number of aggregates added. Not when build()
+  // smoothed the prolongator (returns 0). Allocates.
   std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                             std::span<const std::uint32_t> nodes, std::span<const Vec3> x,
                             parallel::Team& team);
