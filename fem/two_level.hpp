@@ -56,9 +56,11 @@
 // their neighbours are recomputed (a fifth of the rows), the elimination order is kept and Ac
 // refactorised. At 7 of the 80 cut steps of the 3 mm deep incision of bench/bench_fem.cpp that
 // takes 1.3-1.6 ms on one thread (the factorisation 0.8-1.1 of it), where recomputing all rows
-// and reordering took 2.5-3.3: a step after a cut then needs 11.6 iterations instead of 14.1
-// (mass-spring), 4.8 instead of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector
-// updates are fused into those row loops.
+// and reordering took 2.5-3.3 (but a 12 mm cut made in one frame 140 steps after the last build,
+// whose kept rows are that old, needs 19 cycle iterations instead of 17). With the split a step
+// after a cut needs 11.6 iterations instead of 14.1 (mass-spring), 4.8 instead of 5.1
+// (co-rotational). A cycle costs 2 m products with A; the smoother's vector updates are fused
+// into those row loops.
 //
 // Everything is deterministic: aggregates are grown in node slot order, every sum has a fixed order
 // and the parallel loops write disjoint data, so results do not depend on the thread count.
