@@ -429,17 +429,18 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
   const auto all = [&](auto&& f) {  // f on every group, when the groups do not depend on each other
     team.run(3, [&](std::size_t g) { f(groups_[g], g); });
   };
-  const auto lower = [](const LocalGroup& g, std::size_t k, const std::vector<Vec3>& y) {
+  // The couplings of the k-th node with y: those before it in the sweep order (lower) or after.
+  const auto coupled = [](const LocalGroup& g, std::uint32_t begin, std::uint32_t end,
+                          const std::vector<Vec3>& y) {
     Vec3 s = Vec3::Zero();
-    for (std::uint32_t l = g.start[2 * k]; l < g.start[2 * k + 1]; ++l)
-      s.noalias() += *g.links[l].block * y[g.links[l].col];
+    for (std::uint32_t l = begin; l < end; ++l) s.noalias() += *g.links[l].block * y[g.links[l].col];
     return s;
   };
-  const auto upper = [](const LocalGroup& g, std::size_t k, const std::vector<Vec3>& y) {
-    Vec3 s = Vec3::Zero();
-    for (std::uint32_t l = g.start[2 * k + 1]; l < g.start[2 * k + 2]; ++l)
-      s.noalias() += *g.links[l].block * y[g.links[l].col];
-    return s;
+  const auto lower = [&](const LocalGroup& g, std::size_t k, const std::vector<Vec3>& y) {
+    return coupled(g, g.start[2 * k], g.start[2 * k + 1], y);
+  };
+  const auto upper = [&](const LocalGroup& g, std::size_t k, const std::vector<Vec3>& y) {
+    return coupled(g, g.start[2 * k + 1], g.start[2 * k + 2], y);
   };
   const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
   std::array<double, 3> sum_a{}, sum_b{};  // per group, added in group order
