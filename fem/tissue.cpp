@@ -602,6 +602,7 @@ StepStats TissueModel::step(double dt) {
   };
   if (!(dt > 0) || !std::isfinite(dt)) return fail("time step " + std::to_string(dt) + " s is not positive");
   refresh();
+  ++coarse_age_;
   const std::size_t nn = rows_.size();
   parallel::Team& team = this->team();
 
@@ -679,8 +680,12 @@ StepStats TissueModel::step(double dt) {
   const auto split = [&](parallel::Team& split_team) {
     // An aggregate the cut severed would tie both sides of the crack to one rigid motion. severs
     // already searched the touched aggregates: without it there is nothing to split.
-    if (severs)
-      st.aggregates_split = coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team);
+    if (severs) {
+      const bool whole = coarse_age_ > kCoarseRefreshSteps;
+      st.aggregates_split =
+          coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team, whole);
+      if (whole) coarse_age_ = 0;
+    }
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
     coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
@@ -691,6 +696,7 @@ StepStats TissueModel::step(double dt) {
     coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), build_partial, build_team, coarse_stale_);
     coarse_stale_ = false;
     coarse_regroup_ = false;
+    coarse_age_ = 0;
     st.preconditioner_built = true;
   };
   if (local && severs) {

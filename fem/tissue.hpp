@@ -229,8 +229,13 @@ class TissueModel {
   std::vector<BlockRow> rows_;               // A, one block row per node slot
   std::vector<std::vector<Entry>> entries_;  // per node slot: incident tets, sorted by slot
   TwoLevelPreconditioner coarse_;
-  bool coarse_stale_ = true;                                   // rebuild before the next solve
-  bool coarse_regroup_ = false;                                // the same, keeping lambda
+  bool coarse_stale_ = true;     // rebuild before the next solve
+  bool coarse_regroup_ = false;  // the same, keeping lambda
+  // Steps since the coarse operator was last computed whole. A split updates it in part (fem/
+  // two_level.hpp), unless it is older than this: its kept rows would then be of a matrix long
+  // gone (a cut into tissue left to settle).
+  int coarse_age_ = 0;
+  static constexpr int kCoarseRefreshSteps = 30;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> born_;  // (node, first parent) since the last step
   std::vector<std::uint32_t> dirty_list_;
   std::vector<std::uint32_t> changed_;  // rows rebuilt since the last step, sorted

@@ -376,7 +376,7 @@ bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const
 std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const std::uint8_t> active,
                                                   std::span<const std::uint32_t> nodes,
-                                                  std::span<const Vec3> x, parallel::Team& team) {
+                                                  std::span<const Vec3> x, parallel::Team& team, bool whole) {
   if (smoothed_ || members_.empty()) return 0;
   reserve_nodes(a.size());
   const std::size_t before = members_.size();
@@ -416,7 +416,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   }
   const std::size_t made = members_.size() - before;
   if (made == 0) return 0;
-  if (coarse_rows_.size() != before || cholesky_.size() != before) {
+  if (whole || coarse_rows_.size() != before || cholesky_.size() != before) {
     galerkin(a, active, team);
     return made;
   }

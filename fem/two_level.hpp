@@ -56,11 +56,11 @@
 // their neighbours are recomputed (a fifth of the rows), the elimination order is kept and Ac
 // refactorised. At 7 of the 80 cut steps of the 3 mm deep incision of bench/bench_fem.cpp that
 // takes 1.3-1.6 ms on one thread (the factorisation 0.8-1.1 of it), where recomputing all rows
-// and reordering took 2.5-3.3 (but a 12 mm cut made in one frame 140 steps after the last build,
-// whose kept rows are that old, needs 19 cycle iterations instead of 17). With the split a step
-// after a cut needs 11.6 iterations instead of 14.1 (mass-spring), 4.8 instead of 5.1
-// (co-rotational). A cycle costs 2 m products with A; the smoother's vector updates are fused
-// into those row loops.
+// and reordering took 2.5-3.3. The caller asks for all rows when Ac is old: a 12 mm cut made in
+// one frame 140 steps after the last build then needs 17 cycle iterations instead of 19. With
+// the split a step after a cut needs 11.6 iterations instead of 14.1 (mass-spring), 4.8 instead
+// of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector updates are
+// fused into those row loops.
 //
 // Everything is deterministic: aggregates are grown in node slot order, every sum has a fixed order
 // and the parallel loops write disjoint data, so results do not depend on the thread count.
@@ -105,11 +105,11 @@ class TwoLevelPreconditioner {
   // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
   // nodes at x, and then updates Ac (above): where it recomputes blocks they are those of
-  // P^T A P, the others are kept. Returns the number of aggregates added. Not when build()
-  // smoothed the prolongator (returns 0). Allocates.
+  // P^T A P, the others are kept; with whole = true it recomputes all. Returns the number of
+  // aggregates added. Not when build() smoothed the prolongator (returns 0). Allocates.
   std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                             std::span<const std::uint32_t> nodes, std::span<const Vec3> x,
-                            parallel::Team& team);
+                            parallel::Team& team, bool whole = false);
 
   // The rows of A of `nodes` changed (a cut rebuilt them): the block rows of Ac of their aggregates
   // are out of date (split_severed() recomputes those).

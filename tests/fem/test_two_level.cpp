@@ -494,6 +494,11 @@ TEST_CASE("two-level: a split recomputes the coarse operator near the cut and ke
   CHECK(asymmetry <= 1e-12 * scale);
   CHECK(coupled_kept > 0);  // the box is large enough to keep some blocks
   check_symmetric_positive(cut, c, 1, 17, 5);
+  // Asked for the whole operator (the caller's choice when Ac is old), every block is recomputed.
+  Cycle whole(s, 1);
+  REQUIRE(whole.pre.split_severed(cut.a, cut.active, changed, cut.mesh.positions(), team(2), true) > 0);
+  CHECK(whole.pre.factored());
+  check_galerkin(cut, whole.pre);
 }
 
 TEST_CASE("two-level: a split whose updated coarse operator does not factorise recomputes it whole") {
