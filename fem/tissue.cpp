@@ -684,7 +684,7 @@ StepStats TissueModel::step(double dt) {
       const bool whole = coarse_age_ > kCoarseRefreshSteps;
       st.aggregates_split =
           coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team, whole);
-      if (whole) coarse_age_ = 0;
+      if (coarse_.split_whole()) coarse_age_ = 0;
     }
     coarse_stale_ = static_cast<double>(coarse_.extended()) >
                     settings_.coarse_rebuild_fraction * static_cast<double>(active_count);

@@ -377,6 +377,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const std::uint8_t> active,
                                                   std::span<const std::uint32_t> nodes,
                                                   std::span<const Vec3> x, parallel::Team& team, bool whole) {
+  split_whole_ = false;
   if (smoothed_ || members_.empty()) return 0;
   reserve_nodes(a.size());
   const std::size_t before = members_.size();
@@ -418,6 +419,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   if (made == 0) return 0;
   if (whole || coarse_rows_.size() != before || cholesky_.size() != before) {
     galerkin(a, active, team);
+    split_whole_ = true;
     return made;
   }
   // Ac is updated, not recomputed: the block rows (and columns) of the parts, of the aggregates a
@@ -467,7 +469,10 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
               [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
   std::fill(outdated_.begin(), outdated_.end(), 0);
   cholesky_.analyze_following(coarse_rows_, follows);
-  if (!factorize()) galerkin(a, active, team);
+  if (!factorize()) {
+    galerkin(a, active, team);
+    split_whole_ = true;
+  }
   return made;
 }
 

@@ -138,6 +138,9 @@ class TwoLevelPreconditioner {
   [[nodiscard]] std::size_t coarse_size() const { return 6 * members_.size(); }
   // Nodes added by extend() since build().
   [[nodiscard]] std::size_t extended() const { return extended_; }
+  // Whether the last split_severed() recomputed all of Ac (asked to, or its update did not
+  // factorise).
+  [[nodiscard]] bool split_whole() const { return split_whole_; }
   // The largest number of nodes an aggregate holds over the number it was built (or split) with.
   [[nodiscard]] double growth() const;
   // Aggregate of node slot i, -1 if none.
@@ -188,6 +191,7 @@ class TwoLevelPreconditioner {
   std::vector<std::int32_t> aggregate_;
   std::vector<std::vector<Entry>> prolongator_;
   bool smoothed_ = false;     // P was smoothed at build(); else P = T
+  bool split_whole_ = false;  // see split_whole()
   std::vector<Vec3> offset_;  // per node slot: x_i - c_I when its row of T was made
   // Per aggregate: the nodes with a block in its column of P (slot order, then extend() order),
   // centroid, orthonormalising map V L^{-1/2}.

@@ -454,6 +454,7 @@ TEST_CASE("two-level: a split recomputes the coarse operator near the cut and ke
     for (std::size_t j = 0; j < before; ++j) old[i * before + j] = c.pre.coarse_block(i, j);
   REQUIRE(c.pre.split_severed(cut.a, cut.active, changed, cut.mesh.positions(), team(2)) > 0);
   REQUIRE(c.pre.factored());
+  CHECK_FALSE(c.pre.split_whole());
   const std::size_t na = c.pre.aggregate_count();
 
   // Recomputed: the aggregates holding a changed row (among them the parts) and those coupled to
@@ -494,6 +495,7 @@ TEST_CASE("two-level: a split recomputes the coarse operator near the cut and ke
   Cycle whole(s, 1);
   REQUIRE(whole.pre.split_severed(cut.a, cut.active, changed, cut.mesh.positions(), team(2), true) > 0);
   CHECK(whole.pre.factored());
+  CHECK(whole.pre.split_whole());
   check_galerkin(cut, whole.pre);
 }
 
@@ -506,6 +508,7 @@ TEST_CASE("two-level: a split whose updated coarse operator does not factorise r
   Cycle c(s, 1);
   REQUIRE(c.pre.split_severed(cut.a, cut.active, changed, cut.mesh.positions(), team(2)) > 0);
   CHECK(c.pre.factored());
+  CHECK(c.pre.split_whole());  // the caller counts the age of Ac from here
   check_galerkin(cut, c.pre);
   check_symmetric_positive(cut, c, 1, 19, 5);
 }
