@@ -22,7 +22,8 @@
 // kappa/V g g^T with g = d vol / d x the current face areas, grows with the fourth power of an
 // in-plane stretch: an element the cutter made tens of micrometres across at the crack tip,
 // stretched twenty-fold and flattened as the wound opens, makes its nodes a thousand times
-// stiffer than their neighbours, which slows the solve (README, "Tissue step after a cut").
+// stiffer than their neighbours, which slows the solve (README, "Not yet": the step right after a
+// cut).
 //
 // Prestress (DESIGN section 6): the rest shape is scaled by 1/lambda0, i.e. b_a -> lambda0 b_a,
 // V -> V / lambda0^3, L_e -> L_e / lambda0; the mesh's rest positions are left alone.
