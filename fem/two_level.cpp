@@ -11,6 +11,11 @@ namespace scalpel {
 
 namespace {
 
+// Orders the blocks of a row of Ac by column.
+bool by_column(const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) {
+  return l.col < r.col;
+}
+
 Mat3 cross_matrix(const Vec3& d) {
   Mat3 m;
   m << 0, -d.z(), d.y(), d.z(), 0, -d.x(), -d.y(), d.x(), 0;
@@ -288,8 +293,7 @@ void TwoLevelPreconditioner::coarse_row(std::size_t ag, std::span<const BlockRow
     if (e.col == ag)
       for (int k = 0; k < 6; ++k)
         if (e.block(k, k) == 0.0) e.block(k, k) = 1.0;
-  std::sort(row.begin(), row.end(),
-            [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
+  std::sort(row.begin(), row.end(), by_column);
 }
 
 // Ac = P^T A P for the current P and A, and its factorisation.
@@ -381,14 +385,13 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   if (smoothed_ || members_.empty()) return 0;
   reserve_nodes(a.size());
   const std::size_t before = members_.size();
-  std::vector<std::uint32_t> parts_of;  // the aggregates split (ids kept by their first part)
-  std::vector<std::uint32_t> follows;   // per added aggregate: the one it was split from
+  std::vector<std::uint32_t> follows;  // per added aggregate: the one it was split from
   Parts found;
   for (const std::uint32_t ag : touched(nodes)) {
     connected_parts(ag, a, active, found);
     auto& parts = found.parts;
     if (parts.size() < 2) continue;
-    parts_of.push_back(ag);
+    if (ag < outdated_.size()) outdated_[ag] = 1;  // its row is recomputed (below)
     // The inactive members have no coarse part: they stay with the first one.
     parts.front().insert(parts.front().end(), found.rest.begin(), found.rest.end());
     for (std::size_t k = 0; k < parts.size(); ++k) {
@@ -429,7 +432,6 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   // need not be positive definite); a matrix that does not factorise is recomputed whole. The
   // elimination order is kept, each new part right after the aggregate it was split from.
   outdated_.resize(members_.size(), 1);
-  for (const std::uint32_t ag : parts_of) outdated_[ag] = 1;
   std::vector<std::uint8_t> is_changed = outdated_;
   for (std::uint32_t ag = 0; ag < members_.size(); ++ag) {
     if (!outdated_[ag]) continue;
@@ -464,9 +466,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   for (const std::uint32_t id : changed)
     for (const BlockCholesky::Entry& e : coarse_rows_[id])
       if (!is_changed[e.col]) coarse_rows_[e.col].push_back({id, e.block.transpose()});
-  for (const std::uint32_t j : border)
-    std::sort(coarse_rows_[j].begin(), coarse_rows_[j].end(),
-              [](const BlockCholesky::Entry& l, const BlockCholesky::Entry& r) { return l.col < r.col; });
+  for (const std::uint32_t j : border) std::sort(coarse_rows_[j].begin(), coarse_rows_[j].end(), by_column);
   std::fill(outdated_.begin(), outdated_.end(), 0);
   cholesky_.analyze_following(coarse_rows_, follows);
   if (!factorize()) {
