@@ -551,14 +551,20 @@ TEST_CASE("block Cholesky: solves a matrix of 6 x 6 blocks, with the fill of sca
       link(b, b, 10.0);
       if (y + 1 < kSide) link(b, b + kSide, 0);
     }
-  std::vector<Eigen::Triplet<double>> entries;
-  for (std::size_t i = 0; i < rows.size(); ++i)
-    for (const auto& e : rows[i])
-      for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c)
-          entries.emplace_back(6 * static_cast<int>(i) + r, 6 * static_cast<int>(e.col) + c, e.block(r, c));
-  Eigen::SparseMatrix<double> a(n, n);
-  a.setFromTriplets(entries.begin(), entries.end());
+  // The scalar matrix of block rows.
+  const auto scalar = [](const std::vector<std::vector<BlockCholesky::Entry>>& block_rows) {
+    std::vector<Eigen::Triplet<double>> entries;
+    for (std::size_t i = 0; i < block_rows.size(); ++i)
+      for (const auto& e : block_rows[i])
+        for (int r = 0; r < 6; ++r)
+          for (int c = 0; c < 6; ++c)
+            entries.emplace_back(6 * static_cast<int>(i) + r, 6 * static_cast<int>(e.col) + c, e.block(r, c));
+    const auto size = 6 * static_cast<Eigen::Index>(block_rows.size());
+    Eigen::SparseMatrix<double> m(size, size);
+    m.setFromTriplets(entries.begin(), entries.end());
+    return m;
+  };
+  const Eigen::SparseMatrix<double> a = scalar(rows);
 
   BlockCholesky chol;
   chol.analyze(rows);
@@ -616,15 +622,7 @@ TEST_CASE("block Cholesky: solves a matrix of 6 x 6 blocks, with the fill of sca
     kept.analyze_following(split_rows, follows);
     CHECK(kept.same_structure(split_rows));
     REQUIRE(kept.factorize(split_rows));
-    std::vector<Eigen::Triplet<double>> split_entries;
-    for (std::size_t i = 0; i < split_rows.size(); ++i)
-      for (const auto& e : split_rows[i])
-        for (int r = 0; r < 6; ++r)
-          for (int c = 0; c < 6; ++c)
-            split_entries.emplace_back(6 * static_cast<int>(i) + r, 6 * static_cast<int>(e.col) + c,
-                                       e.block(r, c));
-    Eigen::SparseMatrix<double> split_a(n + 6, n + 6);
-    split_a.setFromTriplets(split_entries.begin(), split_entries.end());
+    const Eigen::SparseMatrix<double> split_a = scalar(split_rows);
     const Eigen::VectorXd sb = Eigen::VectorXd::LinSpaced(n + 6, 1.0, -1.0);
     Eigen::VectorXd sx = sb;
     kept.solve(sx);
