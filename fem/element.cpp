@@ -91,19 +91,15 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   const Mat3 eps = 0.5 * (rtf + rtf.transpose()) - Mat3::Identity();
   // Strain limit (element.hpp): principal strains and the volumetric strain beyond kStrainLimit
   // keep the stress they have at the limit; the energy grows linearly there.
-  Mat3 e = eps;
+  Eigen::SelfAdjointEigenSolver<Mat3> es;
+  es.computeDirect(eps);
+  const Vec3& strain = es.eigenvalues();
+  const Vec3 held = strain.cwiseMax(-kStrainLimit).cwiseMin(kStrainLimit);
   const double tr = eps.trace();
   const double tr_held = std::clamp(tr, -kStrainLimit, kStrainLimit);
-  out.held = tr_held != tr;
-  if (eps.squaredNorm() > kStrainLimit * kStrainLimit) {
-    Eigen::SelfAdjointEigenSolver<Mat3> es;
-    es.computeDirect(eps);
-    const Vec3 held = es.eigenvalues().cwiseMax(-kStrainLimit).cwiseMin(kStrainLimit);
-    if (held != es.eigenvalues()) {
-      e.noalias() = es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose();
-      out.held = true;
-    }
-  }
+  out.held = tr_held != tr || held != strain;
+  Mat3 e = eps;
+  if (held != strain) e.noalias() = es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose();
   Mat3 sigma = 2.0 * rest.mu * e;
   sigma.diagonal().array() += rest.lambda * tr_held;
   out.c.noalias() = r * rest.grad;
@@ -112,6 +108,18 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
   out.energy = rest.volume * (rest.mu * (2.0 * e.cwiseProduct(eps).sum() - e.squaredNorm()) +
                               0.5 * rest.lambda * tr_held * (2.0 * tr - tr_held));
+  // Twist modes (element.hpp): rho_k = (sigma_i + sigma_j) / (s_i + s_j) for the pair (i, j) other
+  // than k, clamped at 0. Two principal stretches summing to less than kTwistStretchFloor belong to
+  // a nearly collapsed element, whose tension would make rho arbitrarily large: the floor bounds it.
+  const Vec3 principal = (2.0 * rest.mu) * held + Vec3::Constant(rest.lambda * tr_held);
+  Vec3 alpha;
+  for (int k = 0; k < 3; ++k) {
+    const int i = (k + 1) % 3, j = (k + 2) % 3;
+    const double stretch = std::max(2.0 + strain[i] + strain[j], kTwistStretchFloor);
+    alpha[k] = 0.5 * rest.volume * std::max(0.0, (principal[i] + principal[j]) / stretch);
+  }
+  const Mat3 axes = r * es.eigenvectors();
+  out.twist.noalias() = axes * alpha.asDiagonal() * axes.transpose();
 }
 
 void evaluate_mass_spring(const TetRest& rest, const std::array<Vec3, 4>& x, MassSpringState& out) {

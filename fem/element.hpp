@@ -7,8 +7,27 @@
 //   eps = sym(R^T F) - I,  sigma = 2 mu eps + lambda tr(eps) I  [Pa],
 //   energy W = V (mu eps:eps + lambda/2 tr(eps)^2)  [J],
 //   force f_a = -V R sigma b_a  [N]  (= -dW/dx_a exactly, since R^T F is symmetric),
-//   stiffness K_ab = R K0_ab R^T = V (lambda c_a c_b^T + mu c_b c_a^T + mu (c_a . c_b) I),
-// with c_a = R b_a: the paper's "one linearisation per step" keeps R fixed over the step.
+//   stiffness K_ab = R K0_ab R^T + [c_a] M [c_b]^T,
+//   R K0_ab R^T = V (lambda c_a c_b^T + mu c_b c_a^T + mu (c_a . c_b) I),
+// with c_a = R b_a and [c] the cross-product matrix. R K0 R^T alone is the stiffness with R held
+// fixed over the step; it misses the derivative of R, which is as large as the stress. Under
+// prestress that part is the tension's stiffness against rotation (a string's, a drum's), and an
+// implicit step without it alternates between two mirrored shapes instead of settling.
+// The consistent tangent (Teran, Sifakis, Irving, Fedkiw, "Robust quasistatic finite elements and
+// flesh simulation", SCA 2005, section 5; eigen-form as in Smith, De Goes, Kim, "Analytic
+// eigensystems for isotropic distortion energies", TOG 38(1), 2019): the energy depends on the
+// principal stretches s_i of S = R^T F only, so its Hessian in F splits into the stretch block and,
+// per pair (i, j) of principal axes, a flip mode and a twist mode. R K0 R^T is exact on the
+// stretch block and the flip modes (2 mu) below the strain limit. The twist mode about axis k, the
+// unit matrix T_k = R [v_k] / sqrt(2) with v_k the third principal axis, has the eigenvalue
+//   rho_k = (sigma_i + sigma_j) / (s_i + s_j)   (sigma the principal stresses),
+// zero in R K0 R^T. Its part of the Hessian is V sum_k rho_k (T_k : dF)^2, and T_k : dF =
+// sum_a dx_a . (n_k x c_a) / sqrt(2) with n_k = R v_k, so
+//   M = V/2 sum_k max(rho_k, 0) n_k n_k^T.
+// rho_k < 0 (compression across the pair) would make K indefinite; it is clamped to 0 (the
+// projection of Teran et al.), which over-estimates the stiffness there: that only damps, and CG
+// keeps a positive definite matrix. Elements beyond the strain limit keep R K0 R^T on the stretch
+// block and flip modes (an over-estimate) and take the twist of their held stress.
 // R is found by the iterative rotation extraction of Müller, Bender, Chentanez, Macklin, "A Robust
 // Method to Extract the Rotational Part of Deformations", MIG 2016, warm-started from the last R,
 // with the full Newton step where it is safe (element.cpp): quadratic instead of linear convergence.
@@ -37,18 +56,17 @@
 // Strain limit: linear elasticity means nothing far beyond 100 % strain. In a cutting simulation the
 // elements there are mostly ones the cutter made in deformed tissue (a sub-tetrahedron whose rest
 // shape is a sliver but whose nodes have moved apart, or one born inverted; about 1 % of the
-// elements after the default scenario's incision). There the fixed-R stiffness misses the rotational
-// terms, which are of the order of the stress, and the implicit step pumps energy into the element.
-// So the energy is continued linearly (Huber) past |strain| = kStrainLimit: each principal strain of
-// the co-rotational element, its volumetric strain, each spring's strain and the mass-spring
-// volume term keep the force they have at the limit. Energy and force stay exact derivatives. The
-// co-rotational solver keeps the full stiffness there (an over-estimate, which only damps). The
-// mass-spring Gauss-Newton stiffness grows with the stretch (the volume term's as its fourth power),
-// so a held spring or volume term is weighted by held / strain: the secant stiffness, the weight of
-// iteratively reweighted least squares for Huber's loss (Holland & Welsch, "Robust regression using
-// iteratively reweighted least-squares", Commun. Statist. A6, 1977), in proportion to the held
-// force. Unweighted, 28 steps of a 3 mm deep incision into 20 thousand tetrahedra hit the
-// iteration cap (tests/sim/test_simulation.cpp); weighted, none.
+// elements after the default scenario's incision), where the stress is large and the linearisation of
+// one step is far from the element's response over it. So the energy is continued linearly (Huber) past
+// |strain| = kStrainLimit: each principal strain of the co-rotational element, its volumetric strain, each
+// spring's strain and the mass-spring volume term keep the force they have at the limit. Energy and force
+// stay exact derivatives. The co-rotational solver keeps the full stretch and flip stiffness there (an
+// over-estimate, which only damps) and the twist stiffness of the held stress. The mass-spring Gauss-Newton
+// stiffness grows with the stretch (the volume term's as its fourth power), so a held spring or volume term
+// is weighted by held / strain: the secant stiffness, the weight of iteratively reweighted least squares for
+// Huber's loss (Holland & Welsch, "Robust regression using iteratively reweighted least-squares", Commun.
+// Statist. A6, 1977), in proportion to the held force. Unweighted, 28 steps of a 3 mm deep incision into 20
+// thousand tetrahedra hit the iteration cap (tests/sim/test_simulation.cpp); weighted, none.
 #pragma once
 
 #include <array>
@@ -67,7 +85,8 @@ using Vec12 = Eigen::Matrix<double, 12, 1>;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 
 inline constexpr double kInertQuality = 1e-8;
-inline constexpr double kStrainLimit = 1.0;  // see "Strain limit" above [-]
+inline constexpr double kStrainLimit = 1.0;        // see "Strain limit" above [-]
+inline constexpr double kTwistStretchFloor = 0.2;  // see evaluate_corotational [-]
 
 enum class TissueKind { Corotational, MassSpring };
 
@@ -95,6 +114,7 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations =
 struct CorotationalState {
   Mat34 c;                          // rotated gradients c_a = R b_a [1/m]
   double lambda_volume, mu_volume;  // V lambda, V mu of the rest data, for the assembly [N m]
+  Mat3 twist;                       // M of the twist modes (see above), symmetric, >= 0 [N m]
   Mat34 force;                      // f_a [N]
   double energy;                    // [J]
   bool held;                        // a strain is beyond the strain limit
@@ -111,11 +131,26 @@ inline void add_corotational_block(Mat3& k, const Vec3& u, const Vec3& w, const 
   k.diagonal().array() += w.dot(cb);
 }
 
+// Adds the twist part [c_a] M [c_b]^T of s K_ab to k, given n = s [c_a] M: row r of n [c_b]^T is
+// c_b x (row r of n).
+inline void add_twist_block(Mat3& k, const Mat3& n, const Vec3& cb) {
+  for (int r = 0; r < 3; ++r) k.row(r) += cb.cross(Vec3(n.row(r))).transpose();
+}
+
+// s [c_a] M, the factor add_twist_block takes for every b of row a.
+[[nodiscard]] inline Mat3 twist_factor(const CorotationalState& s, int a, double scale) {
+  const Vec3 ca = scale * s.c.col(a);
+  Mat3 n;
+  for (int col = 0; col < 3; ++col) n.col(col) = ca.cross(Vec3(s.twist.col(col)));
+  return n;
+}
+
 // K_ab of the co-rotational element [N/m], from the state as the assembly reads it.
 [[nodiscard]] inline Mat3 corotational_block(const CorotationalState& s, int a, int b) {
   const Vec3 ca = s.c.col(a);
   Mat3 k = Mat3::Zero();
   add_corotational_block(k, s.lambda_volume * ca, s.mu_volume * ca, s.c.col(b));
+  add_twist_block(k, twist_factor(s, a, 1.0), s.c.col(b));
   return k;
 }
 

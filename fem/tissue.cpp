@@ -285,8 +285,12 @@ void TissueModel::assemble(double dt) {
           f += s.force.col(e.local);
           const Vec3 ca = s.c.col(e.local);
           const Vec3 u = (h * s.lambda_volume) * ca, w = (h * s.mu_volume) * ca;
-          for (int b = 0; b < 4; ++b)
-            add_corotational_block(row.blocks[e.block[static_cast<size_t>(b)]], u, w, s.c.col(b));
+          const Mat3 n = twist_factor(s, e.local, h);
+          for (int b = 0; b < 4; ++b) {
+            Mat3& k = row.blocks[e.block[static_cast<size_t>(b)]];
+            add_corotational_block(k, u, w, s.c.col(b));
+            add_twist_block(k, n, s.c.col(b));
+          }
         } else {
           const MassSpringState& s = spring_[e.tet];
           f += s.force.col(e.local);
