@@ -1575,4 +1575,18 @@ std::string CutEngine::check_faithful(double tolerance) const {
   return out;
 }
 
+std::vector<CutEngine::CutNodeCopies> CutEngine::cut_node_copies() const {
+  std::vector<CutNodeCopies> out;
+  out.reserve(cut_nodes_.size());
+  for (const CutNode& n : cut_nodes_) {
+    if (n.copies.empty()) continue;  // undone by tremble (§5.1)
+    CutNodeCopies c;
+    c.rest = mesh_.rest(n.copies[0]);
+    for (const NodeId x : n.copies)
+      if (!mesh_.node_tets(x).empty()) c.copies.push_back(x);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
 }  // namespace scalpel

@@ -196,6 +196,14 @@ class CutEngine {
   [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p, double margin = 0.0) const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
+  // Each cut node (a point the cut surface passes through, in the order made) with its rest
+  // position and the real copies live elements use: one while the crack is closed there, one per
+  // side once it has opened (the lips of the wound).
+  struct CutNodeCopies {
+    Vec3 rest = Vec3::Zero();
+    std::vector<NodeId> copies;
+  };
+  [[nodiscard]] std::vector<CutNodeCopies> cut_node_copies() const;
   // Invariant 5 (DESIGN section 5): every copy of every cut node lies, in the rest configuration,
   // on its parent coarse edge or face at non-negative weights summing to one (edge nodes strictly
   // inside their edge, face nodes inside their face). Returns one line per violation, empty if

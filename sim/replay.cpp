@@ -23,6 +23,11 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
+// The wound's gape is measured at surface cut nodes within this many task tolerances of the path,
+// and its middle over this window [m] around the path's midpoint.
+constexpr double kWoundBand = 3.0;
+constexpr double kWoundWindow = 4e-3;
+
 json percentiles(std::vector<double> v, double scale) {
   json j;
   if (v.empty()) return j;
@@ -139,6 +144,22 @@ void write_mesh_vtu(const Simulation& sim, const std::filesystem::path& path) {
   for (const NodeId n : m.nodes()) displacement.values[n.index] = m.position(n) - m.rest(n);
   data.point_vectors = {std::move(rest), std::move(displacement)};
   write_vtu(m, path.string(), data);
+}
+
+// The lateral gape of the wound at the tissue surface (sim/wound.hpp), across the task's path.
+json wound_json(const Simulation& sim, const Scenario& scenario) {
+  std::vector<Vec3> path;
+  double band = 0;
+  if (scenario.task) {
+    path = scenario.task->path;
+    band = kWoundBand * scenario.task->tolerance;
+  }
+  const WoundGape g = sim.wound_gape(path, band, kWoundWindow);
+  json profile = json::array();
+  for (const WoundGape::Point& p : g.profile) profile.push_back({p.s, p.gape});
+  return {{"mean", g.mean},       {"max", g.max},
+          {"middle", g.middle},   {"surface_cut_nodes", g.surface_nodes},
+          {"bridges", g.bridges}, {"profile", profile}};
 }
 
 }  // namespace
@@ -292,7 +313,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
           {"kinetic", steps.empty() ? 0.0 : steps.back().kinetic_energy}}},
         {"strain_limited_elements",
          {{"max", max_limited}, {"last", steps.empty() ? std::size_t{0} : steps.back().strain_limited}}},
-        {"wound_opening", sim.wound_opening()}};
+        {"wound_opening", wound_json(sim, scenario)}};
   }
   {
     std::size_t frames_in_contact = 0;

@@ -27,6 +27,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   ScenarioMesh m = load_scenario_mesh(scenario_);
   mesh_ = std::move(m.mesh);
   initial_volume_ = mesh_.total_rest_volume();
+  wound_meter_ = std::make_unique<WoundMeter>(mesh_);
   CutOptions cut_options;
   cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
   cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
@@ -139,8 +140,8 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
 
 namespace scalpel {
 
-double Simulation::wound_opening() const {
-  return cutter_->crack_opening();
+WoundGape Simulation::wound_gape(std::span<const Vec3> path, double band, double window) const {
+  return wound_meter_->measure(mesh_, cutter_->cut_node_copies(), path, band, window);
 }
 
 }  // namespace scalpel

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
@@ -27,6 +28,7 @@
 #include "fem/tissue.hpp"
 #include "haptics/force_model.hpp"
 #include "sim/scenario.hpp"
+#include "sim/wound.hpp"
 
 namespace scalpel {
 
@@ -67,8 +69,9 @@ class Simulation {
   [[nodiscard]] const std::vector<double>& tissue_step_seconds() const { return tissue_seconds_; }
   // Per tissue step: whether the mesh changed (a cut) since the step before it.
   [[nodiscard]] const std::vector<std::uint8_t>& tissue_step_after_cut() const { return tissue_after_cut_; }
-  // Widest opening of the wound: the largest distance between two copies of one cut node [m].
-  [[nodiscard]] double wound_opening() const;
+  // How far the wound's lips stand apart at the tissue surface (sim/wound.hpp), across `path` when
+  // one is given (the task's), measuring the cut nodes within `band` [m] of it.
+  [[nodiscard]] WoundGape wound_gape(std::span<const Vec3> path, double band, double window) const;
 
   // The tool's push on the tissue in the last frame (see above).
   struct ToolContact {
@@ -92,6 +95,7 @@ class Simulation {
   Scenario scenario_;
   TetMesh mesh_;
   double initial_volume_ = 0.0;
+  std::unique_ptr<WoundMeter> wound_meter_;  // the outer surface of the uncut mesh
   std::unique_ptr<CutEngine> cutter_;
   std::unique_ptr<TissueModel> tissue_;
   double tissue_time_ = 0.0;  // [s] simulated tissue time
