@@ -4,6 +4,10 @@
 // Gross 2004, section 5), lumped mass M, Rayleigh damping C = alpha M + beta K per region:
 //   (M + dt C + dt^2 K) v1 = M v0 + dt (f(x0) + M g + f_ext),   x1 = x0 + dt v1,
 // solved by conjugate gradients, stopped at ||b - A v|| <= tolerance ||b|| or at the iteration cap.
+// K is the consistent tangent of the element forces (fem/element.hpp), with the twist modes of the
+// stress: prestressed skin at 60 Hz then settles within a few steps (0.08 s in the bundled
+// scenario; tests/sim/test_wound.cpp), and one linearisation a step is enough. With R held fixed
+// in K it alternated between two mirrored shapes for as long as it ran.
 // Fixed nodes have v = 0. The preconditioner is the two-level cycle of fem/two_level.hpp (or plain
 // 3x3 block-Jacobi). The start is the scaled warm start v = s v0, s = (b . v0) / (v0 . A v0): the
 // multiple of the last velocity nearest the solution in the energy norm (the 1-D Galerkin

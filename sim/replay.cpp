@@ -162,6 +162,15 @@ json wound_json(const Simulation& sim, const Scenario& scenario) {
           {"bridges", g.bridges}, {"profile", profile}};
 }
 
+// Pieces cuts severed from every fixed node, held where they lay (sim/simulation.hpp).
+json severed_json(const Simulation& sim) {
+  json pieces = json::array();
+  for (const Simulation::SeveredPiece& p : sim.severed_pieces())
+    pieces.push_back(
+        {{"time", p.time}, {"rest_volume", p.rest_volume}, {"tetrahedra", p.tets}, {"region", p.region}});
+  return pieces;
+}
+
 }  // namespace
 
 json deterministic_part(const json& report) {
@@ -313,7 +322,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
           {"kinetic", steps.empty() ? 0.0 : steps.back().kinetic_energy}}},
         {"strain_limited_elements",
          {{"max", max_limited}, {"last", steps.empty() ? std::size_t{0} : steps.back().strain_limited}}},
-        {"wound_opening", wound_json(sim, scenario)}};
+        {"wound_opening", wound_json(sim, scenario)},
+        {"severed_pieces", severed_json(sim)}};
   }
   {
     std::size_t frames_in_contact = 0;

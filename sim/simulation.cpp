@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <numeric>
 
 namespace scalpel {
 
@@ -45,7 +46,10 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   settings.gravity = scenario_.tissue.gravity;
   settings.volume_springs = scenario_.tissue.volume_springs;
   tissue_ = std::make_unique<TissueModel>(mesh_, std::move(materials), settings);
-  for (const NodeId n : select_fixed_nodes(scenario_, mesh_)) tissue_->set_fixed(n);
+  for (const NodeId n : select_fixed_nodes(scenario_, mesh_)) {
+    tissue_->set_fixed(n);
+    anchored_ = true;
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -78,6 +82,7 @@ void Simulation::on_sample(const ToolSample& s) {
   if (!removed.empty()) tissue_->on_tets_removed(removed);
   if (!added.empty()) tissue_->on_tets_added(added);
   topology_changed_ = topology_changed_ || !c.added_nodes.empty() || !removed.empty() || !added.empty();
+  pieces_changed_ = pieces_changed_ || topology_changed_;
   last_ = s;
   ++samples_;
 }
@@ -111,7 +116,60 @@ void Simulation::push_tissue() {
   contact_.loaded_nodes = loads.size();
 }
 
+void Simulation::hold_severed_pieces(double t) {
+  if (!pieces_changed_ || !anchored_) return;
+  pieces_changed_ = false;
+  // Nodes joined by shared tetrahedra (union-find over node slots), then the pieces without a
+  // fixed node.
+  std::vector<std::uint32_t> root(mesh_.node_capacity());
+  std::iota(root.begin(), root.end(), 0u);
+  const auto find = [&](std::uint32_t i) {
+    while (root[i] != i) i = root[i] = root[root[i]];
+    return i;
+  };
+  const std::vector<TetId> tets = mesh_.tets();
+  for (const TetId tet : tets) {
+    const auto v = mesh_.tet_vertex_indices(tet.index);
+    for (int k = 1; k < 4; ++k) root[find(v[k])] = find(v[0]);
+  }
+  std::vector<std::uint8_t> anchored(root.size(), 0);
+  for (const NodeId n : mesh_.nodes())
+    if (tissue_->fixed(n)) anchored[find(n.index)] = 1;
+  // Pieces by root, in the order of their first tetrahedron: deterministic.
+  const std::size_t first = severed_.size();
+  std::map<std::uint32_t, std::size_t> piece_of;  // root -> index into severed_
+  std::vector<std::map<int, double>> region_volume;
+  for (const TetId tet : tets) {
+    const std::uint32_t r = find(mesh_.tet_vertex_indices(tet.index)[0]);
+    if (anchored[r]) continue;
+    const auto [it, fresh] = piece_of.try_emplace(r, severed_.size());
+    if (fresh) {
+      severed_.push_back({.time = t});
+      region_volume.emplace_back();
+    }
+    SeveredPiece& p = severed_[it->second];
+    const double v = mesh_.rest_volume(tet);
+    p.rest_volume += v;
+    ++p.tets;
+    region_volume[it->second - first][mesh_.region(tet)] += v;
+  }
+  for (std::size_t k = 0; k < region_volume.size(); ++k) {
+    double most = -1;
+    for (const auto& [region, v] : region_volume[k])
+      if (v > most) {
+        most = v;
+        severed_[first + k].region = region;
+      }
+  }
+  for (const NodeId n : mesh_.nodes())
+    if (piece_of.count(find(n.index))) {
+      tissue_->set_fixed(n);
+      mesh_.velocities()[n.index].setZero();
+    }
+}
+
 void Simulation::end_frame(double t, ForceChannel& forces) {
+  hold_severed_pieces(t);
   push_tissue();
   const double dt = 1.0 / scenario_.tissue.rate;
   while (tissue_time_ + dt <= t + 1e-12) {

@@ -73,6 +73,19 @@ class Simulation {
   // one is given (the task's), measuring the cut nodes within `band` [m] of it.
   [[nodiscard]] WoundGape wound_gape(std::span<const Vec3> path, double band, double window) const;
 
+  // Severed pieces: a part of the tissue that a cut has freed from every fixed node would fall
+  // under gravity without bound (or be flung by the solve). At the end of a frame whose cuts
+  // changed the mesh, each such piece (nodes joined by shared tetrahedra) is found and held where
+  // it lies: its nodes become fixed, as if it rested on the instrument tray. A scenario with no
+  // fixed node at all is free-floating tissue and is left alone.
+  struct SeveredPiece {
+    double time = 0;         // [s] the frame that held it
+    double rest_volume = 0;  // [m^3]
+    std::size_t tets = 0;    // live tetrahedra
+    int region = -1;         // the region holding most of its volume
+  };
+  [[nodiscard]] const std::vector<SeveredPiece>& severed_pieces() const { return severed_; }
+
   // The tool's push on the tissue in the last frame (see above).
   struct ToolContact {
     Vec3 force = Vec3::Zero();     // [N] total on the tissue
@@ -91,6 +104,8 @@ class Simulation {
  private:
   // Sets the tissue's external forces from the blade's motion over the frame (see above).
   void push_tissue();
+  // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).
+  void hold_severed_pieces(double t);
 
   Scenario scenario_;
   TetMesh mesh_;
@@ -103,6 +118,9 @@ class Simulation {
   std::vector<double> tissue_seconds_;
   std::vector<std::uint8_t> tissue_after_cut_;
   bool topology_changed_ = false;  // since the last tissue step
+  bool pieces_changed_ = false;    // since the last search for severed pieces
+  bool anchored_ = false;          // the scenario fixes some node
+  std::vector<SeveredPiece> severed_;
   std::size_t samples_ = 0;
   ToolSample last_;
   std::optional<ToolSample> frame_start_;  // the last sample before this frame
