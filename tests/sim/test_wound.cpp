@@ -282,7 +282,9 @@ TEST_CASE("the bundled incision gapes at the skin surface") {
   const Scenario sc = load_scenario(bundled("scenarios/skin_incision.yaml"));
   REQUIRE(sc.log);
   const auto out = std::filesystem::temp_directory_path() / "scalpel_test_wound";
-  const ReplayResult r = replay(sc, *sc.log, {.out_dir = out});
+  ReplayOptions options;
+  options.out_dir = out;
+  const ReplayResult r = replay(sc, *sc.log, options);
   std::filesystem::remove_all(out);
   CHECK(r.invariants_ok);
   const auto& w = r.report["tissue"]["wound_opening"];
