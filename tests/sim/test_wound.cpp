@@ -208,16 +208,28 @@ TEST_CASE("the 2-D reference converges to the infinite plate's crack opening 4 s
   CHECK(std::abs(wide[10] / (griffith * std::sqrt(1 - 0.5 * 0.5)) - 1) < 0.03);
 }
 
-TEST_CASE("a through-cut of a prestressed membrane opens as plane-stress elasticity says") {
-  // 60 x 60 x 2 mm, held at its sides, lambda0 = 1.02 (strains small enough for linear theory), no
-  // gravity. The blade, longer than the membrane is thick, comes down just outside the grid plane
-  // x = -a, runs along y = 0 to just past x = a and lifts out; the tissue then settles. Crack tips
-  // on grid planes make the crack's length that of the reference.
+namespace {
+
+struct CrackOpening {
+  double a = 0, h = 0;            // crack half-length, cell size [m]
+  WoundGape gape;                 // measured along the crack
+  std::vector<double> reference;  // the 2-D reference's opening at x = 0 ... a [m]
+  double reference_change = 0;    // its change at the last refinement [-]
+  double infinite_plate = 0;      // 4 sigma a / E [m]
+};
+
+// A membrane 60 x 60 x 2 mm of `cells` cells a side (odd: no grid plane on y = 0), held at its
+// sides, lambda0 = 1.02 (strains small enough for linear theory), no gravity. The blade, longer
+// than the membrane is thick, comes down a tenth of a cell outside the grid plane x = -a (plane k
+// from x_min), runs along y = 0 to just past x = a and lifts out; the tissue then settles. Crack
+// tips on grid planes make the crack as long as the reference's.
+CrackOpening cut_membrane(int cells, int tip_plane) {
   constexpr double kPrestress = 1.02, kYoung = 1e5, kPoisson = 0.45;
-  constexpr int kCells = 41;
-  const double h = 0.060 / kCells;
-  const double a = 13 * h;  // grid planes x = -30 mm + k h at k = 7 and 34
-  Simulation sim(parse_scenario(membrane(kPrestress, 60, false, kCells), "membrane.yaml", "."));
+  CrackOpening out;
+  out.h = 0.060 / cells;
+  out.a = 0.5 * (cells - 2 * tip_plane) * out.h;
+  const double a = out.a, h = out.h;
+  Simulation sim(parse_scenario(membrane(kPrestress, 60, false, cells), "membrane.yaml", "."));
   ForceChannel forces;
   ToolSample s;
   double t = 0;
@@ -235,43 +247,53 @@ TEST_CASE("a through-cut of a prestressed membrane opens as plane-stress elastic
   for (int k = 1; k <= 200; ++k) sample(Vec3(end, 0, -0.003 + 0.008 * k / 200));
   for (int k = 0; k < 120 * 16; ++k) sample(Vec3(end, 0, 0.005));  // two seconds to settle
   REQUIRE(sim.tissue_steps().back().kinetic_energy < 1e-9);
-
   const std::vector<Vec3> path{Vec3(-a, 0, 0), Vec3(a, 0, 0)};
-  const WoundGape gape = sim.wound_gape(path, 0.5 * h, 0.5 * h);
+  out.gape = sim.wound_gape(path, 0.5 * h, 0.5 * h);
   // The reference: the prestress of the current shape, sigma = E eps0 / (1 - nu), eps0 = 1 -
-  // 1/lambda0, and the 2-D solve refined until it changes by less than 1 %.
+  // 1/lambda0, and the 2-D solve on cells a tenth as large and finer (a multiple of h / 2, so the
+  // crack ends on a node), refined until it changes by less than 1 %.
   const double sigma = kYoung * (1 - 1 / kPrestress) / (1 - kPoisson);
-  std::vector<double> reference;
-  double change = 1;
-  for (int m = 2; m <= 8 && change > 0.01; m *= 2) {
-    std::vector<double> finer = plane_stress_crack_opening(0.030, a, kCells * m, kYoung, kPoisson, sigma);
-    if (!reference.empty()) change = std::abs(finer[0] / reference[0] - 1);
-    reference = std::move(finer);
+  out.infinite_plate = 4 * sigma * a / kYoung;
+  out.reference_change = 1;
+  for (int m = 2; m <= 16 && out.reference_change > 0.01; m *= 2) {
+    std::vector<double> finer = plane_stress_crack_opening(0.030, a, cells * m, kYoung, kPoisson, sigma);
+    if (!out.reference.empty()) out.reference_change = std::abs(finer[0] / out.reference[0] - 1);
+    out.reference = std::move(finer);
   }
-  CHECK(change <= 0.01);
-  const double cod = reference[0];
-  MESSAGE("crack of 2a = " << 2 * a * 1e3 << " mm at " << h * 1e3 << " mm cells: opening at the middle "
-                           << gape.middle * 1e3 << " mm, reference " << cod * 1e3 << " mm (ratio "
-                           << gape.middle / cod << "), infinite plate " << 4 * sigma * a / kYoung * 1e3
-                           << " mm; " << gape.surface_nodes << " surface cut nodes, " << gape.bridges
-                           << " closed");
-  CHECK(std::abs(gape.middle / cod - 1) < 0.05);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("a through-cut of a prestressed membrane opens as plane-stress elasticity says") {
+  const CrackOpening c = cut_membrane(41, 8);  // 1.46 mm cells, 2a = 36.6 mm
+  CHECK(c.reference_change <= 0.01);
+  const double cod = c.reference[0];
+  MESSAGE("crack of 2a = " << 2 * c.a * 1e3 << " mm at " << c.h * 1e3 << " mm cells: opening at the middle "
+                           << c.gape.middle * 1e3 << " mm, reference " << cod * 1e3 << " mm (ratio "
+                           << c.gape.middle / cod << "), infinite plate " << c.infinite_plate * 1e3 << " mm; "
+                           << c.gape.surface_nodes << " surface cut nodes, " << c.gape.bridges << " closed");
+  CHECK(std::abs(c.gape.middle / cod - 1) < 0.05);
   // The profile follows the reference's along the crack (the ellipse of a Griffith crack, lowered
   // by the held edges) and no tissue bridges the crack behind the cells the blade crossed.
   const auto at = [&](double x) {  // the reference opening at |x|, linearly between its nodes
-    const double u = std::abs(x) / a * static_cast<double>(reference.size() - 1);
-    const auto i = std::min(reference.size() - 2, static_cast<std::size_t>(u));
-    return reference[i] + (u - static_cast<double>(i)) * (reference[i + 1] - reference[i]);
+    const double u = std::abs(x) / c.a * static_cast<double>(c.reference.size() - 1);
+    const auto i = std::min(c.reference.size() - 2, static_cast<std::size_t>(u));
+    return c.reference[i] + (u - static_cast<double>(i)) * (c.reference[i + 1] - c.reference[i]);
   };
   int checked = 0;
-  for (const WoundGape::Point& p : gape.profile) {
-    const double x = p.s - a;
-    if (std::abs(x) >= a - 2 * h) continue;  // the last cells: the tip of a crack on a mesh
+  double worst = 0;
+  for (const WoundGape::Point& p : c.gape.profile) {
+    const double x = p.s - c.a;
+    if (std::abs(x) >= c.a - 2 * c.h) continue;  // the last cells: the tip of a crack on a mesh
     CAPTURE(x);
     CHECK_FALSE(p.bridge);
-    CHECK(std::abs(p.gape - at(x)) < 0.08 * cod);
+    worst = std::max(worst, std::abs(p.gape - at(x)) / cod);
     ++checked;
   }
+  MESSAGE("profile: " << checked << " points up to two cells from the tips, within " << worst * 100
+                      << " % of the middle's opening of the reference");
+  CHECK(worst < 0.08);
   CHECK(checked >= 20);
 }
 
