@@ -1,4 +1,4 @@
-// Collision step cost (DESIGN section 2: O(elements near the blade), never O(mesh)).
+// Collision step cost (docs/state_machine.md: O(elements near the blade), never O(mesh)).
 //
 // Boxes of 10 cm with about 10k, 100k and 1M tetrahedra (6 per cube); a 2.3 cm oblique blade makes
 // one 1 ms step at 0.1 m/s (0.1 mm). Also: refit after deformation, full rebuild, the remove +

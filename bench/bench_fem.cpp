@@ -1,4 +1,4 @@
-// Tissue step speed (DESIGN section 6): step time, CG iterations and final relative residual of the
+// Tissue step speed (docs/tissue.md): step time, CG iterations and final relative residual of the
 // co-rotational and mass-spring models on a prestressed three-layer skin slab, and the step right
 // after an incision compared with the steps before it, with the two-level preconditioner (the
 // default) and with block-Jacobi alone.

@@ -1,4 +1,4 @@
-// Collision step of progressive cutting (DESIGN section 2; Bielser et al. 2003, sections 3-5).
+// Collision step of progressive cutting (docs/state_machine.md; Bielser et al. 2003, sections 3-5).
 //
 // Between two tool samples k and k+1 the blade (back point P, tip T, world space [m]) sweeps the
 // bilinear quad (P_k, T_k, T_k+1, P_k+1), split along the diagonal P_k-T_k+1 into the triangles

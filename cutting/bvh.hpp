@@ -1,4 +1,4 @@
-// Dynamic bounding-volume hierarchy of axis-aligned boxes (DESIGN section 2: the collision step costs
+// Dynamic bounding-volume hierarchy of axis-aligned boxes (docs/state_machine.md: the collision step costs
 // O(elements near the blade), never O(mesh)).
 //
 // A binary tree whose leaves hold "fat" boxes: the tight box of an element enlarged by a margin, so

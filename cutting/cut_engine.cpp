@@ -294,7 +294,7 @@ std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, con
   return it == map.end() ? kInvalidIndex : it->second;
 }
 
-// Places every copy of a cut node at its weights over the coarse nodes (DESIGN §3: the cut is
+// Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the cut is
 // made in the current configuration and carried to the rest one by the same weights). The rest
 // position is the weighted one. In the current configuration the node moves by the change of its
 // weights since it was last placed (or created), over the current corners: it keeps the
@@ -995,7 +995,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   totals_.add(stats);
 
 #ifdef SCALPEL_VALIDATE
-  // Invariants 1-4 wherever this step changed the mesh (DESIGN section 5).
+  // Invariants 1-4 wherever this step changed the mesh (docs/invariants.md).
   const auto report = validate_local(mesh_, changes_.touched_nodes, {.reference_volume = coarse_volume_});
   if (!report.ok())
     throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());

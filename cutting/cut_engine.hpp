@@ -1,4 +1,4 @@
-// Progressive cutting of a tetrahedral mesh (paper §3-4, DESIGN §3-4).
+// Progressive cutting of a tetrahedral mesh (paper §3-4, docs/state_machine.md).
 //
 // The engine keeps the original ("coarse") tetrahedra as the units the state machine works on. A
 // coarse tetrahedron that the blade has touched is replaced in the live mesh by its subdivision,
@@ -8,7 +8,7 @@
 //     the averaged position of its sampled trajectory, §5.2) and optionally an EntryNode where the
 //     tip pierced it.
 // Face and edge data are shared by every tetrahedron that has the face or edge, so neighbours
-// always agree on how a face is triangulated (DESIGN §3).
+// always agree on how a face is triangulated (docs/architecture.md).
 //
 // Subdivision rule: the program of the lookup-table script (config/cutting/state_machine.cut), run in
 // the reference labels of the tetrahedron's canonical state through its absolute transformation:
@@ -62,7 +62,7 @@ struct CutOptions {
   // element degenerates to zero volume when the blade passes exactly through a vertex: edge
   // parameter t is clamped to [min_edge_param, 1 - min_edge_param], face barycentrics to at least
   // min_face_bary. Small enough that a planar cut stays planar to far below the volume tolerance
-  // of DESIGN section 5; the remaining slivers are the tissue model's to condition (DESIGN section 6).
+  // of docs/invariants.md; the remaining slivers are the tissue model's to condition (docs/tissue.md).
   double min_edge_param = 1e-6;
   double min_face_bary = 1e-6;
   // Recursive continuation (§6). A new surface in a tetrahedron whose subdivision is final, or a second
@@ -85,7 +85,7 @@ struct CutOptions {
   const CutTable* table = nullptr;
 };
 
-// The topology changes of the last step, for the tissue model (DESIGN §6).
+// The topology changes of the last step, for the tissue model (docs/tissue.md).
 struct CutChanges {
   std::vector<std::uint32_t> removed_tets;  // live tet slots removed (before the new ones were added)
   std::vector<TetId> added_tets;
@@ -204,7 +204,7 @@ class CutEngine {
     std::vector<NodeId> copies;
   };
   [[nodiscard]] std::vector<CutNodeCopies> cut_node_copies() const;
-  // Invariant 5 (DESIGN section 5): every copy of every cut node lies, in the rest configuration,
+  // Invariant 5 (docs/invariants.md): every copy of every cut node lies, in the rest configuration,
   // on its parent coarse edge or face at non-negative weights summing to one (edge nodes strictly
   // inside their edge, face nodes inside their face). Returns one line per violation, empty if
   // none; `tolerance` [m] on the distance from the weighted parent point.

@@ -1,4 +1,4 @@
-// Topological cut state of a tetrahedron and its absolute transformation (paper §4.2, DESIGN §4).
+// Topological cut state of a tetrahedron and its absolute transformation (paper §4.2, docs/state_machine.md).
 //
 // A state is the set of cut edges (6-bit mask over kEdgeVertices), the faces carrying a mid node
 // (4-bit mask over local faces) and the faces carrying an entry node (4-bit mask). Symmetric states
@@ -19,7 +19,7 @@ struct Perm4 {
   [[nodiscard]] static const std::array<Perm4, 24>& all();
   [[nodiscard]] Perm4 compose(const Perm4& then) const;  // (then ∘ this): apply this first
   [[nodiscard]] Perm4 inverse() const;
-  [[nodiscard]] bool odd() const;  // odd permutations are mirrors (DESIGN §4)
+  [[nodiscard]] bool odd() const;  // odd permutations are mirrors (docs/state_machine.md)
   friend bool operator==(const Perm4&, const Perm4&) = default;
 };
 
@@ -41,7 +41,7 @@ struct CanonicalState {
 };
 [[nodiscard]] CanonicalState canonicalize(const CutTopology& t);
 
-// The 11 classes of edge masks under S4 (DESIGN §4), in the order of kEdgeClassNames.
+// The 11 classes of edge masks under S4 (docs/state_machine.md), in the order of kEdgeClassNames.
 enum class EdgeClass : std::uint8_t {
   None,
   One,

@@ -1,4 +1,4 @@
-// The lookup table of the state machine, written as a script (paper §4.4, DESIGN §4).
+// The lookup table of the state machine, written as a script (paper §4.4, docs/state_machine.md).
 //
 // The script (config/cutting/state_machine.cut, grammar in config/cutting/README.md) holds
 //   - the names of the edge-topology classes (the letters of the state labels),

@@ -1,4 +1,4 @@
-// Dynamic tetrahedral mesh (DESIGN section 3).
+// Dynamic tetrahedral mesh (docs/architecture.md).
 //
 // Nodes and tetrahedra live in slot arrays with free lists. A handle is (index, generation): a
 // slot's generation is bumped when it is freed, so a stale handle is detected, never followed.

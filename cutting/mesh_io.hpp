@@ -1,6 +1,6 @@
-// Mesh files (DESIGN sections 3 and 7): readers for Gmsh .msh (ASCII 2.2 and 4.1), TetGen .node/.ele
-// and VTK .vtu (XML, ASCII); writers for .vtu (with cell and point data) and for the boundary surface
-// as Wavefront .obj and ASCII .ply.
+// Mesh files (docs/architecture.md and docs/formats.md): readers for Gmsh .msh (ASCII 2.2 and 4.1), TetGen
+// .node/.ele and VTK .vtu (XML, ASCII); writers for .vtu (with cell and point data) and for the boundary
+// surface as Wavefront .obj and ASCII .ply.
 //
 // Readers keep only tetrahedra (Gmsh element type 4, VTK_TETRA = 10) and only the nodes they use, in
 // file order. Positions become both rest and current positions. A tetrahedron given with negative

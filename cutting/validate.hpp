@@ -1,4 +1,4 @@
-// Mesh invariants 1-4 of DESIGN section 5, checked on demand and, in SCALPEL_VALIDATE builds,
+// Mesh invariants 1-4 of docs/invariants.md, checked on demand and, in SCALPEL_VALIDATE builds,
 // after every mutation by the code that mutates.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The device interface the haptic loop reads the tool from (DESIGN section 1).
+// The device interface the haptic loop reads the tool from (docs/threads.md).
 //
 // Thread ownership: read() and write_force() belong to the haptic thread and never block, allocate or
 // throw. maintain() belongs to one other (non-real-time) thread: it does the slow work, such as

@@ -1,5 +1,5 @@
 // Pose log: the recorded stream of tool samples, read by the mock device and written by the
-// recorder (DESIGN section 7).
+// recorder (docs/formats.md).
 //
 //   # scalpelsim-log 1                      magic line, always first
 //   # device: hid                           metadata, "# key: value"

@@ -1,4 +1,4 @@
-// One pose of the tool as a device reports it (DESIGN sections 1 and 7).
+// One pose of the tool as a device reports it (docs/architecture.md and docs/formats.md).
 #pragma once
 
 #include <cstdint>

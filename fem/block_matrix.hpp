@@ -1,4 +1,4 @@
-// Sparse symmetric matrices of 3x3 blocks, one row per mesh node (DESIGN section 6).
+// Sparse symmetric matrices of 3x3 blocks, one row per mesh node (docs/tissue.md).
 #pragma once
 
 #include <cstdint>

@@ -31,7 +31,7 @@ TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sl
     return r;
   }
 
-  // Prestress: rest shape scaled by 1/lambda0 (DESIGN section 6).
+  // Prestress: rest shape scaled by 1/lambda0 (docs/tissue.md).
   const double l0 = m.prestress;
   const Mat3 inv = dm.inverse() * l0;  // rows are b_1..b_3 of the prestressed rest shape
   for (int a = 1; a < 4; ++a) r.grad.col(a) = inv.row(a - 1).transpose();

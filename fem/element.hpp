@@ -1,4 +1,4 @@
-// Element kernels of the tissue models (DESIGN section 6).
+// Element kernels of the tissue models (docs/tissue.md).
 //
 // Co-rotational linear FEM on a linear tetrahedron: Müller & Gross, "Interactive Virtual
 // Materials", GI 2004, section 4. With F = sum_a x_a b_a^T the deformation gradient (b_a the
@@ -44,7 +44,7 @@
 // stiffer than their neighbours, which slows the solve (README, "Not yet": the step right after a
 // cut).
 //
-// Prestress (DESIGN section 6): the rest shape is scaled by 1/lambda0, i.e. b_a -> lambda0 b_a,
+// Prestress (docs/tissue.md): the rest shape is scaled by 1/lambda0, i.e. b_a -> lambda0 b_a,
 // V -> V / lambda0^3, L_e -> L_e / lambda0; the mesh's rest positions are left alone.
 //
 // Slivers: an element whose rest quality q = 6 sqrt(2) V / l_rms^3 (1 for the regular
@@ -90,7 +90,7 @@ inline constexpr double kTwistStretchFloor = 0.2;  // see evaluate_corotational 
 
 enum class TissueKind { Corotational, MassSpring };
 
-// Rest data of one tetrahedron, computed once when the element is born (STYLE item 6).
+// Rest data of one tetrahedron, computed once when the element is born; every step reads it.
 struct TetRest {
   Mat34 grad = Mat34::Zero();           // b_a, prestressed rest shape [1/m]
   double volume = 0;                    // prestressed rest volume V [m^3]

@@ -1,4 +1,4 @@
-// Linear isotropic material parameters of a tissue region (DESIGN section 6).
+// Linear isotropic material parameters of a tissue region (docs/tissue.md).
 #pragma once
 
 #include <optional>

@@ -1,4 +1,4 @@
-// Deterministic parallel loops for the tissue solver (DESIGN section 6).
+// Deterministic parallel loops for the tissue solver (docs/tissue.md).
 //
 // Work is split into chunks of a fixed size, independent of the thread count, and per-chunk partial
 // sums are added in chunk order: reductions are bit-identical for any number of threads, and for

@@ -1,4 +1,4 @@
-// Prestressed soft tissue on the shared tetrahedral mesh (DESIGN section 6, paper section 7.2).
+// Prestressed soft tissue on the shared tetrahedral mesh (docs/tissue.md, paper section 7.2).
 //
 // Time integration: implicit Euler with one linearisation per step (Baraff & Witkin 1998; Müller &
 // Gross 2004, section 5), lumped mass M, Rayleigh damping C = alpha M + beta K per region:

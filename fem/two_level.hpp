@@ -1,4 +1,4 @@
-// Two-level preconditioner for the tissue solve (DESIGN section 6): a coarse space of aggregates of
+// Two-level preconditioner for the tissue solve (docs/tissue.md): a coarse space of aggregates of
 // nodes that move rigidly, between two passes of a Chebyshev (by default: weighted block-Jacobi)
 // smoother.
 //

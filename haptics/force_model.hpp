@@ -1,5 +1,5 @@
 // The force model the simulation publishes at its visual rate and the haptic loop renders at 1 kHz
-// (DESIGN section 1): a local model of the contact, valid between two simulation frames, in the
+// (docs/threads.md): a local model of the contact, valid between two simulation frames, in the
 // manner of the intermediate representation of Adachi et al. 1995, so the 1 kHz force follows the
 // device even though the simulation answers at 60 Hz.
 //

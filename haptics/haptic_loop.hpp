@@ -1,4 +1,4 @@
-// The haptic servo loop (DESIGN section 1). Each cycle: read the device, render the force from the
+// The haptic servo loop (docs/threads.md). Each cycle: read the device, render the force from the
 // newest force model the simulation published, send it, and push the tool sample (with that force)
 // to the SPSC queue for the simulation. The cycle never blocks, allocates or throws.
 //

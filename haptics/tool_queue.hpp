@@ -1,5 +1,5 @@
 // The lock-free single-producer single-consumer queue of tool samples between the haptic thread
-// (producer) and the simulation thread (consumer), DESIGN section 1.
+// (producer) and the simulation thread (consumer), docs/threads.md.
 #pragma once
 
 #include <atomic>

@@ -138,7 +138,7 @@ long long append_incision(const Scenario& scenario, const Path& path, const Inci
       height = -depth + (m.approach_height + depth) * min_jerk((t - t_lift) / d_plunge);
     }
     const double theta = path.heading(s);
-    // The blade leans back: its back point is above and behind the tip (DESIGN section 2). Set up
+    // The blade leans back: its back point is above and behind the tip (docs/state_machine.md). Set up
     // for a heading along +x, then turned about the vertical to the heading, so the tool's own x
     // axis (where a scenario puts the blade's sharp side) faces forward on any path.
     const Vec3 axis_world = std::cos(m.tilt) * up - std::sin(m.tilt) * Vec3::UnitX();

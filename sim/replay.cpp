@@ -66,7 +66,7 @@ double lateral_distance(const std::vector<Vec3>& path, const Vec3& p) {
   return best;
 }
 
-// Task score (DESIGN section 7): how much of the target path the incision covers within the
+// Task score (docs/formats.md): how much of the target path the incision covers within the
 // tolerance, how far it strays, and whether its depth is in the accepted range.
 json task_score(const Task& task, const std::vector<Vec3>& cuts, double surface_z) {
   json j;

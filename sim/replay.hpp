@@ -1,5 +1,5 @@
-// Headless replay of a recorded pose log (DESIGN sections 1 and 7): the same path a real device
-// takes. A MockDevice replays the log inside the HapticLoop, which pushes ToolSamples into the
+// Headless replay of a recorded pose log (docs/architecture.md and docs/formats.md): the same path a real
+// device takes. A MockDevice replays the log inside the HapticLoop, which pushes ToolSamples into the
 // lock-free queue; the simulation drains it once per visual frame. Both run on a virtual clock in
 // one thread, rate/visual_rate haptic cycles then one frame, so a replay is deterministic and runs
 // as fast as the machine allows.

@@ -1,4 +1,4 @@
-// Scenario: the YAML file an instructor writes to set up an exercise (DESIGN section 7). The schema,
+// Scenario: the YAML file an instructor writes to set up an exercise (docs/formats.md). The schema,
 // with every key, unit, range and default, is documented in config/scenarios/README.md.
 //
 // Every problem in the file (bad YAML, an unknown key, a wrong type, a missing required key, a value
@@ -71,8 +71,8 @@ struct FixedSelector {
   SourceLocation where;
 };
 
-// The scalpel blade is the segment from its back point to its tip in the tool frame (DESIGN
-// section 2); only its front (the side it moves towards) is sharp.
+// The scalpel blade is the segment from its back point to its tip in the tool frame (docs/state_machine.md);
+// only its front (the side it moves towards) is sharp.
 struct ToolSettings {
   std::string name = "scalpel";
   Vec3 blade_back = Vec3(0.0, 0.0, 0.02);  // [m] tool frame

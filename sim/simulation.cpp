@@ -33,7 +33,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
   cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
 
-  // Tissue (DESIGN section 6): materials by region id, the scenario's solver, the fixed boundary.
+  // Tissue (docs/tissue.md): materials by region id, the scenario's solver, the fixed boundary.
   const std::map<int, Material> by_region = resolve_materials(scenario_, m.regions, mesh_);
   std::vector<Material> materials(by_region.empty() ? 1 : static_cast<size_t>(by_region.rbegin()->first) + 1);
   for (const auto& [region, material] : by_region) materials[static_cast<size_t>(region)] = material;

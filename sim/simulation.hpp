@@ -1,6 +1,6 @@
-// The simulation of one scenario (DESIGN section 1): the sim thread's side of the spine. It takes
+// The simulation of one scenario (docs/architecture.md): the sim thread's side of the spine. It takes
 // tool samples drained from the haptic queue, sweeps the blade through the cutter at every sample
-// (DESIGN section 2: every 1 kHz sample is a sweep step), and at the end of each visual frame steps
+// (docs/state_machine.md: every 1 kHz sample is a sweep step), and at the end of each visual frame steps
 // the tissue and publishes the force model for the haptic loop.
 //
 // Tool contact: the blade cuts whatever it meets, and the part of its edge inside the tissue meets a

@@ -659,8 +659,7 @@ TEST_CASE("a blade back along an opened cut at a slight slant shaves no slivers 
   // resolves it (CutOptions::same_cut_angle_deg, same_cut_distance). Its crossings of edges lying
   // in the opened crack are the old surface, not a new one; cut, they shave off a piece of no
   // volume along the bottom where the blade meets the old surface, severed where it crosses the
-  // second cut. Free fragments of no volume are debris the tissue model cannot condition (DESIGN
-  // section 6).
+  // second cut. Free fragments of no volume are debris the tissue model cannot condition (docs/tissue.md).
   auto stroke = [](CutEngine& cutter, TetMesh& mesh, bool along_y, double at, double slant, double to) {
     auto pose = [&](double s) {
       auto p = [&](double z) { return along_y ? Vec3(at + slant * z, s, z) : Vec3(s, at + slant * z, z); };

@@ -1,7 +1,7 @@
 // Property tests of progressive cutting over generated blade trajectories (paper sections 5-6):
 // tremble, reversals, a blade turning about its cross axis, stabs, pull-backs and cuts across
 // earlier cuts, and a stroke that loops across its own incision, on structured and gmsh-made
-// meshes. After every step the invariants of DESIGN section 5 hold around the change (1-4) and
+// meshes. After every step the invariants of docs/invariants.md hold around the change (1-4) and
 // every cut node lies on its parent (5).
 #include <doctest/doctest.h>
 

@@ -1,4 +1,4 @@
-// A minimal pose log sink and reader for the recorder tests, in the CSV layout of DESIGN section 7
+// A minimal pose log sink and reader for the recorder tests, in the CSV layout of docs/formats.md
 // with force columns. Flush hands complete lines to the kernel with one write(2), so a killed
 // process leaves whole lines up to its last flush.
 #pragma once

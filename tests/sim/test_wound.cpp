@@ -1,4 +1,4 @@
-// Prestressed tissue that settles, and a wound that gapes as elasticity says (DESIGN section 6).
+// Prestressed tissue that settles, and a wound that gapes as elasticity says (docs/tissue.md).
 #include <doctest/doctest.h>
 
 #include <cmath>
