@@ -41,12 +41,14 @@ TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sl
   const Lame lame = lame_parameters(m);
   r.mu = lame.mu * r.stiffness_scale;
   r.lambda = lame.lambda * r.stiffness_scale;
+  // Calibrated to Young's modulus and Poisson's ratio on the generated mesh (element.hpp).
+  const MassSpringModuli ms = mass_spring_moduli(m);
   for (size_t e = 0; e < 6; ++e) {
     r.rest_length[e] = len[e] / l0;
-    r.spring_k[e] = r.stiffness_scale * m.young * r.volume / (r.rest_length[e] * r.rest_length[e]);
+    r.spring_k[e] =
+        r.stiffness_scale * ms.spring * m.young * r.volume / (r.rest_length[e] * r.rest_length[e]);
   }
-  const double kappa = m.young / (3.0 * (1.0 - 2.0 * m.poisson));
-  r.volume_k = r.stiffness_scale * kappa / r.volume;
+  r.volume_k = r.stiffness_scale * ms.volume / r.volume;
   return r;
 }
 

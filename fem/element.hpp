@@ -34,11 +34,48 @@
 //
 // Mass-spring variant: a spring on each of the six edges of every tetrahedron (an edge shared by n
 // tetrahedra carries n springs, so the stiffness follows the volume around it) plus a volume term:
-//   W = sum_e k_e/2 (l_e - L_e)^2 + kappa/(2 V) (vol(x) - V)^2,
-//   k_e = E V / L_e^2 [N/m], kappa = E / (3 (1 - 2 nu)) [Pa].
+//   W = sum_e k_e/2 (l_e - L_e)^2 + kappa'/(2 V) (vol(x) - V)^2,
+//   k_e = s E V / L_e^2 [N/m], with s and kappa' [Pa] calibrated below (mass_spring_moduli).
+// What it is for: speed (no rotation to extract) and robustness where the cutter leaves extreme
+// elements and strains (every spring and the volume term are defined for any shape, inverted ones
+// included). It is not for quantitative stress: it is anisotropic on any mesh, and on the generated
+// one its shear modulus along the axes is about a third of the material's (table below).
+// Calibration. Under a homogeneous small strain eps a spring stores k_e/2 (L_e n.eps.n)^2 =
+// s E V/2 (n.eps.n)^2 (n its direction): its share depends on its direction only, and the volume
+// term stores kappa' V/2 tr(eps)^2. Springs are central forces, so their elasticity tensor obeys
+// the Cauchy relations; spread evenly over all directions they would give Young's modulus s E and
+// Poisson's ratio 1/4. The generated meshes (cutting/generators.cpp, 6 tetrahedra per cell) are
+// not: the Kuhn split of a cube has, per unit volume, the weights 1/2 on each axis, 1/3 on each of
+// the face diagonals (1,1,0), (0,1,1), (1,0,1) and 1/2 on the body diagonal (1,1,1), i.e. the energy
+// density s E [1/2 sum_i eps_ii^2 + 1/3 sum_f (n_f.eps.n_f)^2 + 1/2 (n_b.eps.n_b)^2]. Inverting
+// that tensor: under uniaxial stress along a cube axis the springs alone have Young's modulus
+// 30/29 s E and Poisson's ratio 1/29 (and shear with it: the lattice is trigonal about (1,1,1)).
+// The volume term adds kappa' to every normal-normal entry; with k = kappa' / (s E), by
+// Sherman-Morrison,
+//   E_axis = s E (30 + 81 k) / (29 + 54 k),  nu_axis = (1 + 27 k) / (29 + 54 k),
+// and E_axis = E, nu_axis = nu solve to
+//   s = 1 / (1 + nu),  kappa' = E (29 nu - 1) / (27 (1 + nu) (1 - 2 nu)),
+// which also makes the lattice's bulk modulus E / (3 (1 - 2 nu)) exactly. For nu < 1/29 kappa'
+// would be negative (a term that favours a change of volume, making the element indefinite): it is
+// clamped to 0 with s = 29/30 (continuous at 1/29), so the axes keep Young's modulus E and Poisson's
+// ratio is 1/29 whatever the material asks. volume_springs = false (TissueSettings) drops the volume
+// term and keeps s: E_axis = 30 E / (29 (1 + nu)), nu_axis = 1/29.
+// Departure from elasticity, homogenised on cubic cells (exact for the infinite lattice; the patch
+// test in tests/fem/test_tissue.cpp measures the same within 1 %): E_x, nu_x under uniaxial stress
+// along an axis, G_xy under shear stress sigma_xy, E_d under uniaxial stress along d; over E or G
+// of the material. Before: k_e = E V / L_e^2 and kappa' = E / (3 (1 - 2 nu)).
+//   nu    | before: E_x   nu_x   G_xy  E_111 E_1-10 | after: E_x   nu_x   G_xy  E_111 E_1-10
+//   0.30  |         1.32  0.318  0.47  1.48  0.48   |        1.00  0.300  0.36  1.13  0.36
+//   0.40  |         1.39  0.387  0.52  1.49  0.50   |        1.00  0.400  0.37  1.06  0.36
+//   0.45  |         1.44  0.435  0.54  1.49  0.52   |        1.00  0.450  0.37  1.03  0.36
+// So the axes are right, the body diagonal about right, and the shear along the axes and the
+// stretch across the missing face diagonals (1,-1,0) three times too compliant; no choice of s and
+// kappa' fixes that (both scale the shear alike), it would take per-edge constants. On the skin
+// scenarios' flat cells (2.7 x 2.7 x 1 mm) E_x, E_z stay within 3 % and nu within 0.03 of the
+// material's, but G_xz falls to 0.13 G. The cutter's sub-tetrahedra have other directions again.
 // The solver's stiffness clamps the transverse spring term to tension (compressed springs would
 // make it indefinite) and keeps only the Gauss-Newton part of the volume term. That part,
-// kappa/V g g^T with g = d vol / d x the current face areas, grows with the fourth power of an
+// kappa'/V g g^T with g = d vol / d x the current face areas, grows with the fourth power of an
 // in-plane stretch: an element the cutter made tens of micrometres across at the crack tip,
 // stretched twenty-fold and flattened as the wound opens, makes its nodes a thousand times
 // stiffer than their neighbours, which slows the solve (README, "Not yet": the step right after a
@@ -69,6 +106,7 @@
 // thousand tetrahedra hit the iteration cap (tests/sim/test_simulation.cpp); weighted, none.
 #pragma once
 
+#include <algorithm>
 #include <array>
 
 #include <Eigen/Core>
@@ -98,10 +136,21 @@ struct TetRest {
   double mu = 0, lambda = 0;            // Lamé parameters after sliver scaling [Pa]
   std::array<double, 6> rest_length{};  // L_e, prestressed [m]
   std::array<double, 6> spring_k{};     // k_e [N/m]
-  double volume_k = 0;                  // kappa / V [Pa/m^3]
+  double volume_k = 0;                  // kappa' / V [Pa/m^3]
   double quality = 0;                   // q of the unscaled rest shape [-]
   double stiffness_scale = 0;           // min(1, q / q_min); 0 for a degenerate element
 };
+
+// The calibration of the mass-spring model (see above): the spring factor s [-] and the volume
+// term's modulus kappa' [Pa] for the material.
+struct MassSpringModuli {
+  double spring;  // s: k_e = s E V / L_e^2
+  double volume;  // kappa'
+};
+[[nodiscard]] inline MassSpringModuli mass_spring_moduli(const Material& m) {
+  const double nu = std::max(m.poisson, 1.0 / 29.0);  // below 1/29: kappa' = 0, s = 29/30
+  return {1.0 / (1.0 + nu), m.young * (29.0 * nu - 1.0) / (27.0 * (1.0 + nu) * (1.0 - 2.0 * nu))};
+}
 
 // Rest data from the four rest vertices (positively oriented) and the region's material.
 [[nodiscard]] TetRest make_tet_rest(const std::array<Vec3, 4>& rest, const Material& m,
@@ -160,7 +209,7 @@ struct MassSpringState {
   std::array<Vec3, 6> axial;         // a_e [sqrt(N/m)]
   std::array<double, 6> transverse;  // d_e [N/m]
   Mat34 volume_grad;                 // d vol / d x_a [m^2]
-  double volume_stiffness;           // kappa / V times the secant weight (see "Strain limit") [Pa/m^3]
+  double volume_stiffness;           // kappa' / V times the secant weight (see "Strain limit") [Pa/m^3]
   Mat34 force;                       // [N]
   double energy;                     // [J]
   bool held;                         // a strain is beyond the strain limit

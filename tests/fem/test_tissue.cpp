@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <utility>
 
 #include "cutting/generators.hpp"
 #include "cutting/validate.hpp"
@@ -144,6 +145,72 @@ std::vector<std::pair<NodeId, NodeId>> make_incision(TetMesh& m, TissueModel& mo
   return {dup.begin(), dup.end()};
 }
 
+// The displacement gradient du_i/dX_j of a cube patch (the generated Kuhn mesh, 6 x 6 x 6 cells)
+// under the homogeneous stress `sigma` [Pa], applied as the consistent nodal loads of the traction
+// sigma n on its six faces; only the centre node is fixed (the loads balance). Settled statically
+// (60 steps of 10 ms, against periods of 1 ms), gravity off, prestress 1. Measured between the planes one
+// cell inside the faces, away from the boundary layer.
+Mat3 patch_gradient(TissueKind kind, const Material& mat, const Mat3& sigma) {
+  const double side = 0.01, h = side / 6;
+  TetMesh m = make_box({.max = Vec3(side, side, side), .cells = {6, 6, 6}});
+  TissueModel model(m, {mat},
+                    {.kind = kind, .tolerance = 1e-10, .max_iterations = 5000, .gravity = Vec3::Zero()});
+  const auto on = [](double x, double plane) { return std::abs(x - plane) < 1e-9; };
+  for (const NodeId n : m.nodes())
+    if ((m.rest(n) - Vec3::Constant(side / 2)).norm() < 1e-9) model.set_fixed(n);
+  std::map<std::uint32_t, Vec3> load;
+  for (const TetId t : m.tets()) {
+    const auto v = m.tet_nodes(t);
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<NodeId, 3> f{};
+      for (int a = 0, k = 0; a < 4; ++a)
+        if (a != skip) f[static_cast<size_t>(k++)] = v[static_cast<size_t>(a)];
+      for (int axis = 0; axis < 3; ++axis)
+        for (const double plane : {0.0, side}) {
+          if (!std::all_of(f.begin(), f.end(), [&](NodeId n) { return on(m.rest(n)[axis], plane); }))
+            continue;
+          const double area = 0.5 * (m.rest(f[1]) - m.rest(f[0])).cross(m.rest(f[2]) - m.rest(f[0])).norm();
+          const Vec3 normal = (plane > 0 ? 1.0 : -1.0) * Vec3::Unit(axis);
+          for (const NodeId n : f)
+            load.try_emplace(n.index, Vec3::Zero()).first->second += sigma * normal * (area / 3.0);
+        }
+    }
+  }
+  for (const NodeId n : m.nodes())
+    if (load.count(n.index)) model.set_external_force(n, load[n.index]);
+  for (int k = 0; k < 60; ++k) CHECK(model.step(0.01).status == StepStatus::Converged);
+  Mat3 grad;
+  for (int j = 0; j < 3; ++j) {
+    Vec3 lo = Vec3::Zero(), hi = Vec3::Zero();
+    int count = 0;
+    for (const NodeId n : m.nodes()) {
+      const Vec3 u = m.position(n) - m.rest(n);
+      if (on(m.rest(n)[j], h)) lo += u, ++count;
+      if (on(m.rest(n)[j], side - h)) hi += u;
+    }
+    grad.col(j) = (hi - lo) / (count * (side - 2 * h));
+  }
+  return grad;
+}
+
+// Young's modulus and Poisson's ratio of the patch under uniaxial stress along x.
+std::pair<double, double> patch_young_poisson(TissueKind kind, const Material& mat) {
+  const double stress = 1e-3 * mat.young;
+  Mat3 sigma = Mat3::Zero();
+  sigma(0, 0) = stress;
+  const Mat3 g = patch_gradient(kind, mat, sigma);
+  return {stress / g(0, 0), -0.5 * (g(1, 1) + g(2, 2)) / g(0, 0)};
+}
+
+// Shear modulus of the patch under the shear stress sigma_xy.
+double patch_shear(TissueKind kind, const Material& mat) {
+  const double stress = 1e-3 * mat.young;
+  Mat3 sigma = Mat3::Zero();
+  sigma(0, 1) = sigma(1, 0) = stress;
+  const Mat3 g = patch_gradient(kind, mat, sigma);
+  return stress / (g(0, 1) + g(1, 0));
+}
+
 }  // namespace
 
 TEST_CASE("patch test: an affine field is an equilibrium of the co-rotational model") {
@@ -182,8 +249,8 @@ TEST_CASE("patch test: an affine field is an equilibrium of the co-rotational mo
 
 TEST_CASE("mass-spring: edge springs and a volume term, which volume_springs = false leaves out") {
   // A uniform compression by s: every edge shortens by (1 - s) of its length, every element loses
-  // (1 - s^3) of its volume. Springs k = E V / L^2 store 1/2 E V (1 - s)^2 each, six per element;
-  // the volume term kappa / V stores 1/2 kappa V (1 - s^3)^2, kappa = E / (3 (1 - 2 nu)).
+  // (1 - s^3) of its volume. Springs k = f E V / L^2 store 1/2 f E V (1 - s)^2 each, six per
+  // element; the volume term kappa / V stores 1/2 kappa V (1 - s^3)^2 (f, kappa: mass_spring_moduli).
   const Material mat;
   const double s = 0.97;
   double energy[2] = {};
@@ -195,10 +262,31 @@ TEST_CASE("mass-spring: edge springs and a volume term, which volume_springs = f
     for (const NodeId n : m.nodes()) m.set_position(n, s * m.rest(n));
     energy[volume_springs ? 1 : 0] = model.elastic_energy();
   }
-  const double kappa = mat.young / (3.0 * (1.0 - 2.0 * mat.poisson));
-  CHECK(energy[0] == doctest::Approx(6 * 0.5 * mat.young * volume * (1 - s) * (1 - s)).epsilon(1e-9));
+  const double f = mass_spring_moduli(mat).spring, kappa = mass_spring_moduli(mat).volume;
+  CHECK(energy[0] == doctest::Approx(6 * 0.5 * f * mat.young * volume * (1 - s) * (1 - s)).epsilon(1e-9));
   CHECK(energy[1] - energy[0] ==
         doctest::Approx(0.5 * kappa * volume * (1 - s * s * s) * (1 - s * s * s)).epsilon(1e-9));
+}
+
+TEST_CASE("mass-spring: the patch's Young's modulus and Poisson's ratio are the material's") {
+  // Uniaxial stress on a cube of the generated mesh (see patch_gradient). The co-rotational model is
+  // linear elasticity to first order: the measurement itself is checked against it.
+  for (const double poisson : {0.3, 0.4, 0.45}) {
+    Material mat;
+    mat.poisson = poisson;
+    for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
+      const auto [young, nu] = patch_young_poisson(kind, mat);
+      const double shear = patch_shear(kind, mat);
+      MESSAGE("kind ", static_cast<int>(kind), " nu ", poisson, ": E/E0 ", young / mat.young, " nu ", nu,
+              " G/G0 ", shear * 2 * (1 + poisson) / mat.young);
+      CAPTURE(kind);
+      CAPTURE(poisson);
+      CAPTURE(young / mat.young);
+      CAPTURE(nu);
+      CHECK(std::abs(young / mat.young - 1) < 0.02);
+      CHECK(std::abs(nu - poisson) < 0.01);
+    }
+  }
 }
 
 TEST_CASE("no force and no motion under a rigid rotation without prestress") {
