@@ -28,6 +28,16 @@ void require_valid(const TetMesh& m, double volume) {
   REQUIRE_MESSAGE(r.ok(), r.summary());
 }
 
+// Sweeps the vertical blade at x across the whole unit box along +y; `each` runs after every step.
+template <class Each>
+void sweep_through(CutEngine& cutter, double x, Each&& each) {
+  cutter.place(vertical_blade(x, -0.5));
+  for (int k = 1; k <= 200; ++k) {
+    cutter.step(vertical_blade(x, -0.5 + 0.01 * k));
+    each();
+  }
+}
+
 }  // namespace
 
 TEST_CASE("a planar through-cut separates a box into two exact halves") {
@@ -36,11 +46,7 @@ TEST_CASE("a planar through-cut separates a box into two exact halves") {
     TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
     CutEngine cutter(mesh);
     const double x = 0.37;
-    cutter.place(vertical_blade(x, -0.5));
-    for (int k = 1; k <= 200; ++k) {
-      cutter.step(vertical_blade(x, -0.5 + 0.01 * k));
-      require_valid(mesh, 1.0);
-    }
+    sweep_through(cutter, x, [&] { require_valid(mesh, 1.0); });
     const auto comps = connected_components(mesh);
     REQUIRE(comps.count() == 2);
     std::vector<double> v = comps.rest_volume;
@@ -723,8 +729,7 @@ TEST_CASE("the cut area is one side's crack faces: a rigidly moved side leaves i
     TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
     CutEngine cutter(mesh);
     const double x = 0.37;
-    cutter.place(vertical_blade(x, -0.5));
-    for (int k = 1; k <= 200; ++k) cutter.step(vertical_blade(x, -0.5 + 0.01 * k));
+    sweep_through(cutter, x, [] {});
     REQUIRE(connected_components(mesh).count() == 2);
     CHECK(std::abs(cutter.cut_surface_area() - 1.0) < 1e-9);
     for (const Vec3& d : {Vec3(0.005, 0, 0), Vec3(0.05, 0.02, -0.03), Vec3(0.3, 0, 0)}) {

@@ -173,6 +173,19 @@ TEST_CASE("element forces are minus the gradient of the energy (finite differenc
   }
 }
 
+// Minus the derivative of the element forces by central differences of step h.
+Mat12 stiffness_from_forces(TissueKind kind, const TetRest& rest, const X4& x, double h) {
+  const Vec12 x0 = flat(x);
+  Mat12 fd;
+  for (int i = 0; i < 12; ++i) {
+    Vec12 xp = x0, xm = x0;
+    xp[i] += h;
+    xm[i] -= h;
+    fd.col(i) = -(evaluate(kind, rest, unflat(xp)).force - evaluate(kind, rest, unflat(xm)).force) / (2 * h);
+  }
+  return fd;
+}
+
 TEST_CASE("element stiffness is minus the derivative of the forces at stress-free states") {
   // At a rigidly moved (prestressed) rest shape the co-rotational linearisation K = R K0 R^T and
   // the Gauss-Newton volume term are exact, so K must match finite differences of the forces.
@@ -186,33 +199,12 @@ TEST_CASE("element stiffness is minus the derivative of the forces at stress-fre
         const X4 x = deform(rest, random_rotation(rng) / prestress, Vec3(u(rng), u(rng), u(rng)));
         const Eval e = evaluate(kind, r, x);
         CHECK(e.force.norm() < 1e-9 * e.stiffness.norm() * 0.01);
-        const Vec12 x0 = flat(x);
-        const double h = 1e-9;
-        Mat12 fd;
-        for (int i = 0; i < 12; ++i) {
-          Vec12 xp = x0, xm = x0;
-          xp[i] += h;
-          xm[i] -= h;
-          fd.col(i) = -(evaluate(kind, r, unflat(xp)).force - evaluate(kind, r, unflat(xm)).force) / (2 * h);
-        }
+        const Mat12 fd = stiffness_from_forces(kind, r, x, 1e-9);
         CAPTURE(k);
         CHECK((fd - e.stiffness).norm() <= 1e-5 * e.stiffness.norm());
       }
     }
   }
-}
-
-// Minus the derivative of the element forces by central differences of step h.
-Mat12 stiffness_from_forces(TissueKind kind, const TetRest& rest, const X4& x, double h) {
-  const Vec12 x0 = flat(x);
-  Mat12 fd;
-  for (int i = 0; i < 12; ++i) {
-    Vec12 xp = x0, xm = x0;
-    xp[i] += h;
-    xm[i] -= h;
-    fd.col(i) = -(evaluate(kind, rest, unflat(xp)).force - evaluate(kind, rest, unflat(xm)).force) / (2 * h);
-  }
-  return fd;
 }
 
 TEST_CASE("co-rotational stiffness is the consistent tangent under prestress and large rotations") {
