@@ -1199,15 +1199,6 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   return out;
 }
 
-double CutEngine::crack_opening() const {
-  double widest = 0.0;
-  for (const CutNode& n : cut_nodes_)
-    for (size_t i = 0; i < n.copies.size(); ++i)
-      for (size_t j = i + 1; j < n.copies.size(); ++j)
-        widest = std::max(widest, (mesh_.position(n.copies[i]) - mesh_.position(n.copies[j])).norm());
-  return widest;
-}
-
 double CutEngine::cut_surface_area() const {
   double area = 0.0;
   std::vector<std::uint32_t> keys;

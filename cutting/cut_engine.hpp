@@ -184,9 +184,6 @@ class CutEngine {
   // Rest positions of the points the cut has reached: edge cut points and entry nodes (the tip's
   // path), in the order they were made (for task scoring).
   [[nodiscard]] std::vector<Vec3> cut_points() const;
-  // The largest distance between two copies of one cut node [m], current configuration: how far
-  // the cut has opened.
-  [[nodiscard]] double crack_opening() const;
   // Where point p is in the tissue, current configuration: none outside it or in an opened crack
   // wider than 2 `margin` [m] (a blade on its own cut lies on the crack faces, which may have
   // parted by a fraction of its thickness). Weights are on the corners of the original tetrahedron
