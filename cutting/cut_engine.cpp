@@ -735,8 +735,8 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
 
 // Subdivides the affected coarse tetrahedra again, records their transitions, opens the crack
 // where the cut surface now surrounds a node, and updates the live mesh.
-void CutEngine::commit(const std::set<std::uint32_t>& affected,
-                       const std::set<std::uint32_t>& left_faces_tets, CutStepStats& stats) {
+std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
+                              const std::set<std::uint32_t>& left_faces_tets, CutStepStats& stats) {
   std::set<std::uint32_t> completion_candidates = affected;
   completion_candidates.insert(left_faces_tets.begin(), left_faces_tets.end());
   // Subdivide the affected tetrahedra again and record their transitions.
@@ -791,6 +791,28 @@ void CutEngine::commit(const std::set<std::uint32_t>& affected,
   for (const std::uint32_t id : regroup_ids) regroup(id, regrouped);
   rebuild.insert(regrouped.begin(), regrouped.end());
   for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
+  // A copy no group took (groups that merged again once a crack face between them went, e.g. a
+  // subdivision undone by tremble, §5.1) has lost its elements with the rebuild: it goes, or the
+  // tissue would keep a node it never moves. Promoted units may still hold a pinned node's copy.
+  std::vector<NodeId> unused;
+  for (const std::uint32_t id : regroup_ids) {
+    CutNode& n = cut_nodes_[id];
+    std::vector<std::uint32_t> index(n.copies.size(), kInvalidIndex);
+    for (const auto& e : n.group_of) index[e.group] = 0;
+    std::uint32_t kept = 0;
+    for (std::uint32_t k = 0; k < n.copies.size(); ++k) {
+      if (index[k] == kInvalidIndex && mesh_.node_tets(n.copies[k]).empty()) {
+        unused.push_back(n.copies[k]);
+        continue;
+      }
+      index[k] = kept;
+      n.copies[kept++] = n.copies[k];
+    }
+    if (kept == n.copies.size()) continue;
+    n.copies.resize(kept);
+    for (auto& e : n.group_of) e.group = index[e.group];
+  }
+  return remove_nodes(unused);
 }
 
 CutStepStats CutEngine::step(const BladePose& pose) {
@@ -989,8 +1011,8 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
 
   stats.sealed_events = sealed_now.size();
-  commit(affected, left_faces_tets, stats);
-  const std::size_t removed = remove_undone_nodes();
+  std::size_t removed = commit(affected, left_faces_tets, stats);
+  removed += remove_undone_nodes();
   stats.nodes_created = mesh_.node_count() + removed - nodes_before;
   totals_.add(stats);
 
@@ -1048,8 +1070,8 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   for (const auto& [k, id] : entry_nodes_)
     for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
   affected.insert(t);
-  commit(affected, {}, stats);
-  stats.nodes_created = mesh_.node_count() - nodes_before;
+  const std::size_t removed = commit(affected, {}, stats);
+  stats.nodes_created = mesh_.node_count() + removed - nodes_before;
   totals_.add(stats);
   return stats;
 }
@@ -1093,6 +1115,13 @@ std::size_t CutEngine::remove_undone_nodes() {
     n.group_of.clear();
   }
   undone_.clear();
+  return remove_nodes(dead);
+}
+
+// Removes real nodes no element uses. One made in this step leaves the step's changes; the tissue
+// model learns of the others by the removed elements that held them.
+std::size_t CutEngine::remove_nodes(const std::vector<NodeId>& dead) {
+  if (dead.empty()) return 0;
   auto is_dead = [&](NodeId x) { return std::find(dead.begin(), dead.end(), x) != dead.end(); };
   for (std::size_t i = changes_.added_nodes.size(); i-- > 0;)
     if (is_dead(changes_.added_nodes[i])) {
@@ -1199,21 +1228,19 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   return out;
 }
 
+// Each crack face once, at the real nodes of the sub-tetrahedron that owns it: one side's copies,
+// so the area does not grow as the crack opens.
 double CutEngine::cut_surface_area() const {
   double area = 0.0;
   std::vector<std::uint32_t> keys;
   for (const auto& [k, c] : cut_tets_) keys.push_back(k);
   std::sort(keys.begin(), keys.end());
-  auto position = [&](GNode g) -> Vec3 {
-    if (!(g & kCutBit)) return mesh_.positions()[static_cast<size_t>(g)];
-    return mesh_.position(cut_nodes_[static_cast<size_t>(g & ~kCutBit)].copies[0]);
+  auto face_area = [&](const std::array<NodeId, 3>& f) {
+    return triangle_area(mesh_.position(f[0]), mesh_.position(f[1]), mesh_.position(f[2]));
   };
-  for (const auto& f : retired_crack_faces_)
-    area += triangle_area(mesh_.position(f[0]), mesh_.position(f[1]), mesh_.position(f[2]));
-  for (const CrackFace& f : crack_faces(keys)) {
-    const auto face = face_without(cut_tets_.at(f.unit).subs[f.sub], f.face);
-    area += triangle_area(position(face[0]), position(face[1]), position(face[2]));
-  }
+  for (const auto& f : retired_crack_faces_) area += face_area(f);
+  for (const CrackFace& f : crack_faces(keys))
+    area += face_area(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
   return area;
 }
 

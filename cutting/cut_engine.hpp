@@ -232,6 +232,7 @@ class CutEngine {
   void undo_face(const std::array<std::uint32_t, 3>& key, bool mid);
   bool face_has_edge_node(const std::array<std::uint32_t, 3>& key) const;
   std::size_t remove_undone_nodes();
+  std::size_t remove_nodes(const std::vector<NodeId>& dead);
   void update_face_position(std::uint32_t id);
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
@@ -239,8 +240,9 @@ class CutEngine {
   // sub-tetrahedra changed group to `changed`.
   void regroup(std::uint32_t cut_id, std::vector<std::uint32_t>& changed);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
-  void commit(const std::set<std::uint32_t>& affected, const std::set<std::uint32_t>& left_faces_tets,
-              CutStepStats& stats);
+  // Returns how many real nodes it removed (copies no element uses any more).
+  std::size_t commit(const std::set<std::uint32_t>& affected, const std::set<std::uint32_t>& left_faces_tets,
+                     CutStepStats& stats);
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   bool is_crack_face(GNode a, GNode b, GNode c) const;
   // Crack faces of the subdivisions of `units`, each once (face `face` of sub-tetrahedron `sub`).
