@@ -28,6 +28,9 @@ struct CutEngine::CutNode {
   // Shared with units promoted within a stroke (§6): it stays where it is and gains no copy.
   bool pinned = false;
   std::vector<NodeId> copies;  // real nodes, one per group (group_of says which)
+  // It has had two copies: the cut has gone through here, even where its groups joined again
+  // and the copy no element used has gone.
+  bool opened = false;
   using GroupEntry = CutNodeGroup;
   std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
   // The copy sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses (0 if not grouped).
@@ -323,7 +326,7 @@ void CutEngine::place_cut_node(std::uint32_t id) {
 // has none, and takes the middle of its trace (the average of the trace's end points on the face).
 void CutEngine::update_face_position(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
-  if (n.copies.size() > 1 || n.pinned) return;  // the crack has opened here, or promoted units hold it
+  if (n.opened || n.pinned) return;  // the crack has opened here, or promoted units hold it
   const Key3& k = n.key;
   const Vec3 pa = coarse_.positions()[k[0]], pb = coarse_.positions()[k[1]], pc = coarse_.positions()[k[2]];
   Vec3 w;
@@ -671,6 +674,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   for (const auto& e : fresh)
     if (n.group(e.coarse, e.sub) != e.group) changed.push_back(e.coarse);
   n.group_of.swap(fresh);
+  n.opened |= n.copies.size() > 1;
 }
 
 std::uint32_t CutEngine::CutNode::group(std::uint32_t coarse, std::uint32_t sub) const {
@@ -922,7 +926,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       continue;
     }
     const std::uint32_t mid = face_node(mid_nodes_, k);
-    if (mid != kInvalidIndex && cut_nodes_[mid].copies.size() > 1) {
+    if (mid != kInvalidIndex && cut_nodes_[mid].opened) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
       continue;
     }
@@ -950,7 +954,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
       changed_faces.insert(k);
     }
     CutNode& n = cut_nodes_[id];
-    if (n.copies.size() > 1) {  // already cut through; a second pass is the recursive case (§6)
+    if (n.opened) {  // already cut through; a second pass is the recursive case (§6)
       ++stats.recrossed_faces;
       continue;
     }
@@ -978,7 +982,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   // subdivision.
   for (const Key3& k : tip_left) {
     const std::uint32_t mid = face_node(mid_nodes_, k);
-    if (face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].copies.size() > 1)) {
+    if (face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].opened)) {
       ++stats.recrossed_faces;  // the tip crosses a cut face again: the recursive case (§6)
       continue;
     }
@@ -1324,7 +1328,7 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
     }
     const CutNode& m = cut_nodes_[mid];
     if (same_cut(point_of(m), face_sheet_normal(k), point, normal, face_size(k))) return;
-    add_units(k, m.copies.size() == 1);  // an opened face cannot take a second surface at any level
+    add_units(k, !m.opened);  // an opened face cannot take a second surface at any level
   };
 
   for (const EdgeCut& e : sweep_result_.edges) {
@@ -1399,7 +1403,7 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
   // unit of its component is promoted.
   auto at_boundary = [&](std::uint32_t t) {
     return cut_tets_.at(t).any_cut_node(
-        [&](std::uint32_t id) { return opens(id) && cut_nodes_[id].copies.size() < 2; });
+        [&](std::uint32_t id) { return opens(id) && !cut_nodes_[id].opened; });
   };
   for (const auto& [seed, crosses] : units) {
     if (refused.count(seed) || !cut_tets_.count(seed) || (!crosses && at_boundary(seed))) continue;
@@ -1553,7 +1557,7 @@ bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const 
   const auto a = former_.find(e.a), b = former_.find(e.b);
   if (a == former_.end() || b == former_.end()) return false;
   const CutNode &na = cut_nodes_[a->second], &nb = cut_nodes_[b->second];
-  if (na.copies.size() < 2 || nb.copies.size() < 2) return false;
+  if (!na.opened || !nb.opened) return false;
   const Vec3 &ma = na.sheet_normal, &mb = nb.sheet_normal;
   if (ma.squaredNorm() == 0 || mb.squaredNorm() == 0) return false;  // surface unknown
   const auto& x = coarse_.positions();
