@@ -299,26 +299,50 @@ std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, con
 
 // Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the cut is
 // made in the current configuration and carried to the rest one by the same weights). The rest
-// position is the weighted one. In the current configuration the node moves by the change of its
-// weights since it was last placed (or created), over the current corners: it keeps the
-// displacement the tissue gave it instead of snapping back onto the straight coarse face, which
-// would strain its elements.
+// position is the weighted one. In the current configuration a copy goes where the tissue has put
+// the material point of its new rest position: the piecewise-linear map of the live elements
+// around it. So it keeps the displacement the tissue gave it, and sliding along the face leaves
+// the field the elements interpolate as it was, up to re-interpolation. The coarse face's corners are no measure of that map once a crack or a strained
+// element lies between them; they move only a copy no element holds yet.
 void CutEngine::place_cut_node(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
   const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
-  Vec3 r = Vec3::Zero(), dx = Vec3::Zero();
+  Vec3 r = Vec3::Zero(), dx_face = Vec3::Zero();
   for (int i = 0; i < count; ++i) {
     const NodeId p = mesh_.node_handle(n.key[static_cast<size_t>(i)]);
     r += n.bary[i] * mesh_.rest(p);
-    dx += (n.bary[i] - n.placed_bary[i]) * mesh_.position(p);
+    dx_face += (n.bary[i] - n.placed_bary[i]) * mesh_.position(p);
   }
   for (const NodeId c : n.copies) {
+    const std::optional<Vec3> x = current_position_of(c, r);
     mesh_.set_rest(c, r);
-    mesh_.set_position(c, mesh_.position(c) + dx);
+    mesh_.set_position(c, x ? *x : Vec3(mesh_.position(c) + dx_face));
     changes_.moved_nodes.push_back(c);
     changes_.touched_nodes.push_back(c.index);
   }
   n.placed_bary = n.bary;
+}
+
+// Where the live elements around real node c put rest point `rest` now: the element of c's star
+// that holds it in the rest configuration (the one it is deepest in), interpolated at its current
+// corners. None if c has no element of positive rest volume, or the point lies far outside them all.
+std::optional<Vec3> CutEngine::current_position_of(NodeId c, const Vec3& rest) const {
+  const auto& rp = mesh_.rest_positions();
+  const auto& xp = mesh_.positions();
+  double deepest = -0.5;  // further outside than that: the star is no measure
+  std::optional<Vec3> out;
+  for (const std::uint32_t t : mesh_.node_tets(c)) {
+    const auto& v = mesh_.tet_vertex_indices(t);
+    Eigen::Matrix3d dm;
+    for (int k = 0; k < 3; ++k) dm.col(k) = rp[v[static_cast<size_t>(k + 1)]] - rp[v[0]];
+    if (!(dm.determinant() > 0)) continue;
+    const Vec3 w = dm.inverse() * (rest - rp[v[0]]);
+    const double lowest = std::min({1.0 - w.sum(), w[0], w[1], w[2]});
+    if (!(lowest > deepest)) continue;
+    deepest = lowest;
+    out = (1.0 - w.sum()) * xp[v[0]] + w[0] * xp[v[1]] + w[1] * xp[v[2]] + w[2] * xp[v[3]];
+  }
+  return out;
 }
 
 // Where a mid node stands (§4.1, §5.2): on the blade while the blade crosses the face; afterwards

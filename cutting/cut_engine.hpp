@@ -234,6 +234,7 @@ class CutEngine {
   std::size_t remove_undone_nodes();
   std::size_t remove_nodes(const std::vector<NodeId>& dead);
   void update_face_position(std::uint32_t id);
+  [[nodiscard]] std::optional<Vec3> current_position_of(NodeId c, const Vec3& rest) const;
   CutTopology compute_topology(std::uint32_t coarse_slot) const;
   void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
   // Regroups the sub-tetrahedra around a cut node; appends the coarse tetrahedra whose
