@@ -115,7 +115,9 @@ struct Trajectory {
 
 using Tet = std::array<Vec3, 4>;
 
-double volume_of(const Tet& t) { return signed_volume(t[0], t[1], t[2], t[3]); }
+double volume_of(const Tet& t) {
+  return signed_volume(t[0], t[1], t[2], t[3]);
+}
 
 // The part of tetrahedron t with n.x - d of sign `side` (+1 or -1), as tetrahedra.
 void clip(const Tet& t, const Plane& p, int side, std::vector<Tet>& out) {
@@ -127,7 +129,8 @@ void clip(const Tet& t, const Plane& p, int side, std::vector<Tet>& out) {
   }
   auto cut = [&](int a, int b) {
     const double sa = s[static_cast<size_t>(a)], sb = s[static_cast<size_t>(b)];
-    return Vec3(t[static_cast<size_t>(a)] + sa / (sa - sb) * (t[static_cast<size_t>(b)] - t[static_cast<size_t>(a)]));
+    return Vec3(t[static_cast<size_t>(a)] +
+                sa / (sa - sb) * (t[static_cast<size_t>(b)] - t[static_cast<size_t>(a)]));
   };
   auto push = [&](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
     Tet x{a, b, c, d};
@@ -273,8 +276,10 @@ Trajectory make(Kind kind, const Scene& s, Rng& rng) {
     }
     case Kind::GridCrossing: {  // x = c and y = c on grid planes, blades tilted in their plane
       const int cells = static_cast<int>(std::lround(1.0 / s.h));
-      const double x = s.lo.x() + s.h * static_cast<double>(1 + rng.next() % static_cast<std::uint64_t>(cells - 1));
-      const double y = s.lo.y() + s.h * static_cast<double>(1 + rng.next() % static_cast<std::uint64_t>(cells - 1));
+      const double x =
+          s.lo.x() + s.h * static_cast<double>(1 + rng.next() % static_cast<std::uint64_t>(cells - 1));
+      const double y =
+          s.lo.y() + s.h * static_cast<double>(1 + rng.next() % static_cast<std::uint64_t>(cells - 1));
       const Plane a{Vec3(1, 0, 0), x}, b{Vec3(0, 1, 0), y};
       const double tilt_a = rng.range(-0.5, 0.5), tilt_b = rng.range(-0.5, 0.5);
       through_stroke(s, a, Vec3(0, std::sin(tilt_a), std::cos(tilt_a)), step, t.samples);
@@ -290,7 +295,8 @@ Trajectory make(Kind kind, const Scene& s, Rng& rng) {
         Vec3 n = rng.unit();
         n.z() *= 0.4;  // steep planes: the blade enters from the side as well as from above
         n.normalize();
-        const Plane p{n, n.dot(centre + Vec3(rng.range(-0.25, 0.25) * size.x(), rng.range(-0.25, 0.25) * size.y(), 0))};
+        const Plane p{
+            n, n.dot(centre + Vec3(rng.range(-0.25, 0.25) * size.x(), rng.range(-0.25, 0.25) * size.y(), 0))};
         through_stroke(s, p, rng.unit(), step, t.samples);
         t.expect.planes.push_back(p);
       }
@@ -317,7 +323,7 @@ Trajectory make(Kind kind, const Scene& s, Rng& rng) {
         const double a = angle + k * rng.range(0.5, 2.6);
         const Vec3 n(std::cos(a), std::sin(a), rng.range(-0.2, 0.2));
         const Plane p{n.normalized(), n.normalized().dot(centre + Vec3(rng.range(-0.2, 0.2) * size.x(),
-                                                                        rng.range(-0.2, 0.2) * size.y(), 0))};
+                                                                       rng.range(-0.2, 0.2) * size.y(), 0))};
         partial_stroke(s, p, rng.range(0.2, 0.7) * size.z(), step, t.samples);
       }
       t.expect.one_piece = true;
@@ -331,9 +337,8 @@ Trajectory make(Kind kind, const Scene& s, Rng& rng) {
       const Vec3 u = n.cross(Vec3(0, 0, 1)).normalized(), w = n.cross(u);
       const double f1 = rng.range(8, 12) * 2 * M_PI / 1000, f2 = rng.range(8, 12) * 2 * M_PI / 1000;
       const double amp = rng.range(0.3, 1.0) * s.h;
-      through_stroke(s, p, w, 0.02 * s.h, t.samples, [&](int k) {
-        return Vec3(amp * (std::sin(f1 * k) * u + std::cos(f2 * k) * w));
-      });
+      through_stroke(s, p, w, 0.02 * s.h, t.samples,
+                     [&](int k) { return Vec3(amp * (std::sin(f1 * k) * u + std::cos(f2 * k) * w)); });
       t.expect.planes = {p};
       break;
     }
@@ -380,10 +385,12 @@ Outcome run(const Scene& s, const Trajectory& t) {
     if (!faithful.empty()) return fail(i, "invariant 5: " + faithful);
     const std::size_t cut = cutter.totals().coarse_tets_cut;
     if (cut > 0) {
-      const double made = static_cast<double>(mesh.tet_count()) - static_cast<double>(original - std::min(original, cut));
+      const double made =
+          static_cast<double>(mesh.tet_count()) - static_cast<double>(original - std::min(original, cut));
       o.refinement = std::max(o.refinement, made / static_cast<double>(cut));
       if (o.refinement > kMaxRefinement)
-        return fail(i, "refinement: " + std::to_string(o.refinement) + " live tetrahedra per cut original one");
+        return fail(i,
+                    "refinement: " + std::to_string(o.refinement) + " live tetrahedra per cut original one");
     }
   }
   const std::size_t end = t.samples.size();
@@ -401,7 +408,8 @@ Outcome run(const Scene& s, const Trajectory& t) {
     std::vector<double> got = pieces.rest_volume;
     std::sort(got.begin(), got.end());
     bool ok = got.size() == want.size();
-    for (std::size_t k = 0; ok && k < got.size(); ++k) ok = std::abs(got[k] - want[k]) <= t.expect.tolerance * s.volume;
+    for (std::size_t k = 0; ok && k < got.size(); ++k)
+      ok = std::abs(got[k] - want[k]) <= t.expect.tolerance * s.volume;
     if (!ok) {
       std::ostringstream why;
       why.precision(12);
@@ -445,8 +453,8 @@ std::string listing(const Trajectory& t) {
   std::ostringstream out;
   out.precision(17);
   for (const Sample& x : t.samples)
-    out << (x.place ? "place " : "step  ") << x.pose.back.transpose() << "  " << x.pose.tip.transpose() << "  "
-        << x.pose.cutting_direction.transpose() << '\n';
+    out << (x.place ? "place " : "step  ") << x.pose.back.transpose() << "  " << x.pose.tip.transpose()
+        << "  " << x.pose.cutting_direction.transpose() << '\n';
   return out.str();
 }
 
@@ -468,8 +476,8 @@ void fuzz(const Scene& s, Kind kind, std::size_t fallback_budget, std::uint64_t 
       const Trajectory small = minimise(s, t, *o.failed_at);
       const Outcome again = run(s, small);
       what << "sample " << *o.failed_at << " of " << t.samples.size() << ": " << o.why << "\nminimised to "
-           << small.samples.size() << " samples (fails at " << again.failed_at.value_or(0) << ": " << again.why
-           << "):\n"
+           << small.samples.size() << " samples (fails at " << again.failed_at.value_or(0) << ": "
+           << again.why << "):\n"
            << listing(small);
     } else {
       what << "after its " << t.samples.size() << " samples: " << o.why;
@@ -482,10 +490,18 @@ void fuzz(const Scene& s, Kind kind, std::size_t fallback_budget, std::uint64_t 
 
 }  // namespace
 
-TEST_CASE("fuzz: tumbling blades through a 3x3x3 box") { fuzz(box(3), Kind::Tumble, 2, 0xf022); }
-TEST_CASE("fuzz: through-cuts crossing along grid planes") { fuzz(box(4), Kind::GridCrossing, 4, 0xf023); }
-TEST_CASE("fuzz: partial-depth incisions crossing, box") { fuzz(box(3), Kind::PartialCrossing, 4, 0xf025); }
-TEST_CASE("fuzz: through-cut with tremor, box") { fuzz(box(3), Kind::Tremor, 2, 0xf026); }
+TEST_CASE("fuzz: tumbling blades through a 3x3x3 box") {
+  fuzz(box(3), Kind::Tumble, 2, 0xf022);
+}
+TEST_CASE("fuzz: through-cuts crossing along grid planes") {
+  fuzz(box(4), Kind::GridCrossing, 4, 0xf023);
+}
+TEST_CASE("fuzz: partial-depth incisions crossing, box") {
+  fuzz(box(3), Kind::PartialCrossing, 4, 0xf025);
+}
+TEST_CASE("fuzz: through-cut with tremor, box") {
+  fuzz(box(3), Kind::Tremor, 2, 0xf026);
+}
 // Known failures (docs/state_machine.md, re-crossing the same cut): a second through-cut crossing
 // the first at a small angle is taken as the first near their meeting line, and pieces stay
 // joined. These fail until that is fixed; then they pass and doctest reports them.
