@@ -28,42 +28,19 @@
 #include "cutting/quality.hpp"
 #include "cutting/topology.hpp"
 #include "cutting/validate.hpp"
+#include "trajectory_support.hpp"
 
 using namespace scalpel;
+using testing::Rng;
+using testing::rotate;
+using testing::Scene;
 
 namespace {
-
-// splitmix64: the same sequence on every platform.
-struct Rng {
-  std::uint64_t state;
-  std::uint64_t next() {
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
-  double range(double a, double b) { return a + (b - a) * uniform(); }
-  Vec3 unit() {
-    for (;;) {
-      const Vec3 v(range(-1, 1), range(-1, 1), range(-1, 1));
-      if (v.squaredNorm() <= 1.0 && v.squaredNorm() > 1e-4) return v.normalized();
-    }
-  }
-};
 
 std::size_t env_size(const char* name, std::size_t fallback) {
   const char* v = std::getenv(name);
   return v ? static_cast<std::size_t>(std::strtoull(v, nullptr, 10)) : fallback;
 }
-
-struct Scene {
-  std::string name;
-  TetMesh mesh;
-  double volume = 0;
-  Vec3 lo, hi;
-  double h = 0;  // [m] a typical edge length
-};
 
 Scene box(int cells) {
   Scene s;
@@ -73,18 +50,6 @@ Scene box(int cells) {
   s.lo = Vec3::Zero();
   s.hi = Vec3::Ones();
   s.h = 1.0 / cells;
-  return s;
-}
-
-Scene gmsh(const std::string& name, const char* path) {
-  Scene s;
-  s.name = name;
-  s.mesh = read_gmsh(path);
-  const MeshSummary m = summarize(s.mesh);
-  s.volume = m.rest_volume;
-  s.lo = m.box_min;
-  s.hi = m.box_max;
-  s.h = std::cbrt(6.0 * m.rest_volume / static_cast<double>(m.tets)) * 1.5;
   return s;
 }
 
@@ -212,10 +177,6 @@ std::string kind_name(Kind k) {
     default:
       return "?";
   }
-}
-
-Vec3 rotate(const Vec3& v, const Vec3& axis, double angle) {
-  return v * std::cos(angle) + axis.cross(v) * std::sin(angle) + axis * axis.dot(v) * (1 - std::cos(angle));
 }
 
 // A stroke through the whole mesh in plane p: a blade along `along` (in the plane), longer than the
@@ -512,5 +473,5 @@ TEST_CASE("fuzz: through-cuts crossing at 10-40 degrees, box" * doctest::should_
   fuzz(box(3), Kind::ShallowCrossing, 6, 0xf028);
 }
 TEST_CASE("fuzz: through-cuts crossing at random angles, gmsh" * doctest::should_fail()) {
-  fuzz(gmsh("gmsh box with inclusion", SCALPEL_TEST_MSH22), Kind::ThroughCrossing, 4, 0xf027);
+  fuzz(testing::gmsh_scene("gmsh box with inclusion", SCALPEL_TEST_MSH22), Kind::ThroughCrossing, 4, 0xf027);
 }

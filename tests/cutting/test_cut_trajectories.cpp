@@ -19,43 +19,14 @@
 #include "cutting/quality.hpp"
 #include "cutting/topology.hpp"
 #include "cutting/validate.hpp"
+#include "trajectory_support.hpp"
 
 using namespace scalpel;
+using testing::Rng;
+using testing::rotate;
+using testing::Scene;
 
 namespace {
-
-// splitmix64: a small generator whose sequence is the same on every platform.
-struct Rng {
-  std::uint64_t state;
-  std::uint64_t next() {
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
-  double range(double a, double b) { return a + (b - a) * uniform(); }
-  Vec3 in_ball(double r) {
-    for (;;) {
-      const Vec3 v(range(-1, 1), range(-1, 1), range(-1, 1));
-      if (v.squaredNorm() <= 1.0) return r * v;
-    }
-  }
-  Vec3 unit() {
-    for (;;) {
-      const Vec3 v = in_ball(1.0);
-      if (v.squaredNorm() > 1e-4) return v.normalized();
-    }
-  }
-};
-
-struct Scene {
-  std::string name;
-  TetMesh mesh;
-  double volume = 0;
-  Vec3 lo, hi;
-  double h = 0;  // [m] a typical edge length
-};
 
 Scene box_scene(CubeSplit split) {
   Scene s;
@@ -69,15 +40,7 @@ Scene box_scene(CubeSplit split) {
 }
 
 Scene gmsh_scene() {
-  Scene s;
-  s.name = "gmsh box with inclusion";
-  s.mesh = read_gmsh(SCALPEL_TEST_MSH22);
-  const MeshSummary m = summarize(s.mesh);
-  s.volume = m.rest_volume;
-  s.lo = m.box_min;
-  s.hi = m.box_max;
-  s.h = std::cbrt(6.0 * m.rest_volume / static_cast<double>(m.tets)) * 1.5;
-  return s;
+  return testing::gmsh_scene("gmsh box with inclusion", SCALPEL_TEST_MSH22);
 }
 
 // One tool sample of a trajectory; `place` puts the blade without cutting (a new incision).
@@ -107,11 +70,6 @@ Vec3 tilted_down(Rng& rng, double max_tilt) {
 Vec3 horizontal(Rng& rng) {
   const double phi = rng.range(0, 2 * M_PI);
   return {std::cos(phi), std::sin(phi), 0.0};
-}
-
-// Rotates v about the unit axis a by angle w.
-Vec3 rotate(const Vec3& v, const Vec3& a, double w) {
-  return v * std::cos(w) + a.cross(v) * std::sin(w) + a * a.dot(v) * (1 - std::cos(w));
 }
 
 enum class Kind { Tremble, Reversal, Turning, Stabs, PullBack, Crossing, Loop, Count };
