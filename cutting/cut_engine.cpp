@@ -297,14 +297,14 @@ std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, con
   return it == map.end() ? kInvalidIndex : it->second;
 }
 
-// Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the cut is
-// made in the current configuration and carried to the rest one by the same weights). The rest
-// position is the weighted one. In the current configuration a copy goes where the tissue has put
-// the material point of its new rest position: the piecewise-linear map of the live elements
-// around it. So it keeps the displacement the tissue gave it, and sliding along the face leaves
-// the field the elements interpolate as it was, up to re-interpolation. The coarse face's corners are no
-// measure of that map once a crack or a strained element lies between them; they move only a copy no element
-// holds yet.
+// Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the
+// cut is made in the current configuration and carried to the rest one by the same weights). The
+// rest position is the weighted one. In the current configuration a copy goes where the tissue has
+// put the material point of its new rest position: the piecewise-linear map of the live elements
+// around it. So it keeps the displacement the tissue gave it, and sliding along the face leaves the
+// field the elements interpolate as it was, up to re-interpolation. The coarse face's corners are no
+// measure of that map once a crack or a strained element lies between them; they move only a copy
+// no element holds yet.
 void CutEngine::place_cut_node(std::uint32_t id) {
   CutNode& n = cut_nodes_[id];
   const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
