@@ -12,7 +12,10 @@ pkg_check_modules(GMP REQUIRED IMPORTED_TARGET gmp)
 
 if(SCALPEL_BUILD_GUI)
   pkg_check_modules(GLFW REQUIRED IMPORTED_TARGET glfw3)
-  find_package(OpenGL REQUIRED)
+  # GLVND's libOpenGL (the GL entry points) and libEGL (offscreen contexts).
+  find_package(OpenGL REQUIRED COMPONENTS OpenGL EGL)
+  pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
+  pkg_check_modules(STB REQUIRED IMPORTED_TARGET stb)
 endif()
 if(SCALPEL_BUILD_TESTS)
   find_package(doctest REQUIRED)

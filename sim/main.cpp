@@ -24,6 +24,10 @@
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 #include "sim/version.hpp"
+#ifdef SCALPEL_HAVE_GUI
+#include "viewer/gl.hpp"
+#include "viewer/pictures.hpp"
+#endif
 
 namespace fs = std::filesystem;
 using namespace scalpel;
@@ -56,8 +60,23 @@ void print_progress(double fraction) {
   if (fraction >= 1.0) std::fprintf(stderr, "\n");
 }
 
+// Exit codes (README): 0 done, 1 mesh invariants broken, 2 bad input, 3 any other error, 4 no
+// graphics (built without the window, or no OpenGL 3.3 context).
+constexpr int kExitNoGraphics = 4;
+
+// A command that needs OpenGL in a build without it.
+struct NoGraphics : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct ImageArgs {
+  bool images = false;
+  std::size_t every = 0;
+  std::string size = "1200x900";
+};
+
 int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out,
-               bool no_progress) {
+               bool no_progress, const ImageArgs& image_args) {
   const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
   const Scenario scenario = load_scenario(scenario_path);
   fs::path log_path = log_arg;
@@ -69,6 +88,24 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   ReplayOptions options;
   options.out_dir = out;
   if (!no_progress && isatty(STDERR_FILENO)) options.progress = print_progress;
+#ifdef SCALPEL_HAVE_GUI
+  std::unique_ptr<ReplayPictures> pictures;
+  if (image_args.images || image_args.every > 0) {
+    PictureOptions po;
+    po.dir = fs::path(out);
+    po.every = image_args.every;
+    if (std::sscanf(image_args.size.c_str(), "%dx%d", &po.width, &po.height) != 2 || po.width < 16 ||
+        po.height < 16 || po.width > 8192 || po.height > 8192)
+      throw InputError("--image-size", 0, 0, "--image-size", "expected WIDTHxHEIGHT, 16 to 8192 pixels each");
+    pictures = std::make_unique<ReplayPictures>(po);
+    options.on_frame = [&](const Simulation& sim, std::size_t frame, bool last) {
+      (*pictures)(sim, frame, last);
+    };
+  }
+#else
+  if (image_args.images || image_args.every > 0)
+    throw NoGraphics("this scalpelsim was built without the window and pictures (SCALPEL_BUILD_GUI=OFF)");
+#endif
   const ReplayResult r = replay(scenario, log_path, options);
   const auto& c = r.report["cutting"];
   std::cout << "replayed " << r.report["replay"]["samples"] << " samples of " << log_path.string() << " on "
@@ -82,6 +119,9 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   std::cout << "  invariants " << (r.invariants_ok ? "hold" : "BROKEN") << "\n"
             << "  wrote " << (fs::path(out) / "report.json").string() << " and "
             << (fs::path(out) / "mesh.vtu").string() << "\n";
+#ifdef SCALPEL_HAVE_GUI
+  if (pictures) std::cout << "  wrote " << pictures->written().size() << " pictures in " << out << "\n";
+#endif
   return r.invariants_ok ? 0 : 1;
 }
 
@@ -230,6 +270,13 @@ int main(int argc, char** argv) {
   replay_cmd->add_option("log", log, "Pose log CSV (default: the scenario's `log`)");
   replay_cmd->add_option("--out", out, "Output folder")->capture_default_str();
   replay_cmd->add_flag("--no-progress", no_progress, "No progress bar on the terminal");
+  ImageArgs image_args;
+  replay_cmd->add_flag("--images", image_args.images,
+                       "Also write PNG pictures of the final state: top.png, oblique.png, section.png");
+  replay_cmd->add_option("--image-every", image_args.every,
+                         "And the oblique view every N frames, as frames/oblique_<frame>.png");
+  replay_cmd->add_option("--image-size", image_args.size, "Picture size, WIDTHxHEIGHT")
+      ->capture_default_str();
 
   auto* validate_cmd = app.add_subcommand("validate", "Check a scenario and its mesh without running it");
   validate_cmd->add_option("scenario", scenario, "Scenario YAML")->required();
@@ -274,7 +321,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress);
+    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, image_args);
     if (*validate_cmd) return cmd_validate(scenario);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
@@ -283,6 +330,14 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;
+  } catch (const NoGraphics& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kExitNoGraphics;
+#ifdef SCALPEL_HAVE_GUI
+  } catch (const RenderError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kExitNoGraphics;
+#endif
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 3;

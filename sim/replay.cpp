@@ -216,6 +216,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     sim.end_frame(static_cast<double>(k) / visual_rate, forces);
     frame_seconds.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+    if (options.on_frame) options.on_frame(sim, k, k == frames);
     if (options.progress) options.progress(static_cast<double>(k) / static_cast<double>(frames));
   }
 

@@ -15,10 +15,15 @@
 
 namespace scalpel {
 
+class Simulation;
+
 struct ReplayOptions {
   std::filesystem::path out_dir;  // report.json and mesh.vtu are written here (created if missing)
   // Called after every frame with the fraction done, for a progress bar.
   std::function<void(double)> progress;
+  // Called after every frame with the simulation as it stands, the frame's number (from 1) and
+  // whether it is the last, for pictures. It must not change the simulation.
+  std::function<void(const Simulation&, std::size_t, bool)> on_frame;
 };
 
 struct ReplayResult {

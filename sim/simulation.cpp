@@ -29,6 +29,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   mesh_ = std::move(m.mesh);
   initial_volume_ = mesh_.total_rest_volume();
   wound_meter_ = std::make_unique<WoundMeter>(mesh_);
+  snapshots_ = std::make_unique<SnapshotBuilder>(mesh_);
   CutOptions cut_options;
   cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
   cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
@@ -169,6 +170,7 @@ void Simulation::hold_severed_pieces(double t) {
 }
 
 void Simulation::end_frame(double t, ForceChannel& forces) {
+  frame_time_ = t;
   hold_severed_pieces(t);
   push_tissue();
   const double dt = 1.0 / scenario_.tissue.rate;

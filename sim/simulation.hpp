@@ -28,6 +28,7 @@
 #include "fem/tissue.hpp"
 #include "haptics/force_model.hpp"
 #include "sim/scenario.hpp"
+#include "sim/snapshot.hpp"
 #include "sim/wound.hpp"
 
 namespace scalpel {
@@ -55,6 +56,14 @@ class Simulation {
   // The end of a visual frame at time t [s]: steps the tissue up to t at the scenario's tissue
   // rate, refits the collision structure to the moved nodes and publishes the force model.
   void end_frame(double t, ForceChannel& forces);
+
+  // What a picture of the tissue needs now (sim/snapshot.hpp), into `out`, with the tetrahedra's
+  // edges when asked. Sets everything but `frame`.
+  void snapshot(FrameSnapshot& out, bool with_edges = false) const {
+    snapshots_->fill(*this, with_edges, out);
+  }
+  // [s] the time of the last frame's end.
+  [[nodiscard]] double time() const { return frame_time_; }
 
   [[nodiscard]] const Scenario& scenario() const { return scenario_; }
   [[nodiscard]] TetMesh& mesh() { return mesh_; }
@@ -111,9 +120,11 @@ class Simulation {
   TetMesh mesh_;
   double initial_volume_ = 0.0;
   std::unique_ptr<WoundMeter> wound_meter_;  // the outer surface of the uncut mesh
+  std::unique_ptr<SnapshotBuilder> snapshots_;
   std::unique_ptr<CutEngine> cutter_;
   std::unique_ptr<TissueModel> tissue_;
   double tissue_time_ = 0.0;  // [s] simulated tissue time
+  double frame_time_ = 0.0;   // [s] the end of the last frame
   std::vector<StepStats> tissue_stats_;
   std::vector<double> tissue_seconds_;
   std::vector<std::uint8_t> tissue_after_cut_;

@@ -1,0 +1,83 @@
+// What a picture of one simulation frame needs, copied out of the live state (docs/threads.md): the
+// simulation thread fills a FrameSnapshot after each frame and publishes it; a renderer reads only
+// snapshots, never the mesh the next frame is changing. Plain data, no OpenGL.
+//
+// The surface is every boundary face of the live tetrahedra, split in two kinds:
+// - skin: a face on the outer surface of the uncut mesh, coloured by its region;
+// - wound: a face of the cut surface (the crack the blade opened, paper section 4.1).
+// A face is on the outer surface when its rest points lie on a boundary face of the original
+// tetrahedron it was cut from (TetMesh::parent); every other boundary face was made by a cut.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "cutting/mesh.hpp"
+
+namespace scalpel {
+
+class Simulation;
+
+// One vertex of a surface triangle, ready for a vertex buffer: position and face normal (current
+// configuration, float), and the region id of a skin face or kWoundRegion for a wound face.
+struct SurfaceVertex {
+  static constexpr float kWoundRegion = -1.0f;
+  std::array<float, 3> position{};
+  std::array<float, 3> normal{};
+  float region = 0.0f;
+};
+
+struct FrameSnapshot {
+  std::uint64_t frame = 0;  // simulation frames since the start
+  double time = 0.0;        // [s] simulation time at the end of the frame
+
+  // Wound triangles first (wound_vertices of them, three vertices each), then the skin's.
+  std::vector<SurfaceVertex> surface;
+  std::size_t wound_vertices = 0;
+  // Every tetrahedron edge once, as pairs of points, when the builder was asked for them.
+  std::vector<std::array<float, 3>> edges;
+
+  // The blade where the last tool sample put it [m]; none before the first sample.
+  bool has_blade = false;
+  Vec3 blade_back = Vec3::Zero(), blade_tip = Vec3::Zero();
+
+  // The instructor's target incision (the scenario's task), empty without one.
+  std::vector<Vec3> target_path;
+  double target_tolerance = 0.0;  // [m]
+
+  // Bounding box of the uncut mesh's rest positions, for framing views [m].
+  Vec3 bounds_min = Vec3::Zero(), bounds_max = Vec3::Zero();
+
+  std::size_t nodes = 0, tetrahedra = 0;
+};
+
+// Builds snapshots of one simulation's mesh. Built once from the uncut mesh (it keeps that mesh's
+// outer faces in rest coordinates); `fill` then reuses the snapshot's storage frame after frame.
+class SnapshotBuilder {
+ public:
+  explicit SnapshotBuilder(const TetMesh& uncut);
+
+  // The surface (and with `with_edges` the edges) of `mesh` now, into `out`.
+  void fill_surface(const TetMesh& mesh, bool with_edges, FrameSnapshot& out) const;
+  // The surface, the blade, the task and the counts of `sim` after a frame.
+  void fill(const Simulation& sim, bool with_edges, FrameSnapshot& out) const;
+
+ private:
+  // Whether the face with rest points a, b, c of a tetrahedron cut from original tet `parent` lies
+  // on the outer surface of the uncut mesh.
+  [[nodiscard]] bool on_outer_surface(std::uint32_t parent, const Vec3& a, const Vec3& b,
+                                      const Vec3& c) const;
+
+  // An original tetrahedron with a face on the boundary: its rest corners and which of its faces
+  // are (bit f: the face opposite corner f).
+  struct Original {
+    std::array<Vec3, 4> corners;
+    std::uint8_t boundary_faces = 0;
+  };
+  std::vector<std::uint32_t> boundary_index_;  // by original slot: index into boundary_, or none
+  std::vector<Original> boundary_;
+  Vec3 bounds_min_ = Vec3::Zero(), bounds_max_ = Vec3::Zero();
+};
+
+}  // namespace scalpel
