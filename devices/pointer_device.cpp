@@ -25,19 +25,19 @@ DeviceStatus PointerDevice::read(double t, ToolSample& out) noexcept {
     // Anchor the cursor where the tool is, so the tool resumes where it froze.
     const Eigen::Vector3d d = last_.position - m_.home;
     anchor_x_ = in.cursor_x - d.x() / m_.metres_per_pixel;
-    anchor_y_ = in.cursor_y - d.z() / m_.metres_per_pixel;
+    anchor_y_ = in.cursor_y + d.y() / m_.metres_per_pixel;
     anchor_scroll_ = in.scroll;
-    lift_ = d.y();
+    lift_ = d.z();
     anchored_ = true;
   }
   const auto held = [&](Key k) { return (in.keys & k) ? 1.0 : 0.0; };
   lift_ += (held(Raise) - held(Lower)) * m_.key_speed * dt;
   yaw_ += (held(YawLeft) - held(YawRight)) * m_.key_turn_rate * dt;
   pitch_ += (held(PitchUp) - held(PitchDown)) * m_.key_turn_rate * dt;
-  // Screen x -> world x, screen y (down) -> world z (towards the viewer), up is world y.
+  // Screen x -> world x, screen y (down) -> world -y, up is world z.
   Eigen::Vector3d p = m_.home + Eigen::Vector3d((in.cursor_x - anchor_x_) * m_.metres_per_pixel,
-                                                lift_ + (in.scroll - anchor_scroll_) * m_.metres_per_notch,
-                                                (in.cursor_y - anchor_y_) * m_.metres_per_pixel);
+                                                -(in.cursor_y - anchor_y_) * m_.metres_per_pixel,
+                                                lift_ + (in.scroll - anchor_scroll_) * m_.metres_per_notch);
   ToolSample s = last_;
   s.t = t;
   s.buttons = in.buttons;
@@ -45,7 +45,7 @@ DeviceStatus PointerDevice::read(double t, ToolSample& out) noexcept {
     AtomicDeviceCounters::bump(counters_.rejected_poses);
   } else {
     s.position = p.cwiseMax(m_.workspace_min).cwiseMin(m_.workspace_max);
-    s.orientation = Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitY()) *
+    s.orientation = Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitZ()) *
                     Eigen::AngleAxisd(pitch_, Eigen::Vector3d::UnitX());
   }
   last_ = s;

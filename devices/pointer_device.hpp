@@ -1,6 +1,7 @@
-// The mouse and keyboard of the window as a tool: the cursor moves the tool in the horizontal plane,
-// the scroll wheel and two keys raise and lower it, four keys turn it (yaw about world y, pitch
-// about the tool's x axis). The window thread publishes its input state; the haptic thread reads
+// The mouse and keyboard of the window as a tool, in a z-up world (the skin is the xy plane): the
+// cursor moves the tool in the horizontal plane (right: +x, down the screen: -y), the scroll wheel
+// and two keys raise and lower it, four keys turn it (yaw about world z, pitch about the tool's x
+// axis). The window thread publishes its input state; the haptic thread reads
 // the newest one through a triple buffer. No force output.
 #pragma once
 

@@ -19,6 +19,12 @@ class TripleBuffer {
   // Writer thread only.
   void publish(const T& value) {
     slots_[back_] = value;
+    publish();
+  }
+  // Writer thread only: the slot the next publish() hands over, to fill in place. It holds an older
+  // value (any of the last three published), so a large value reuses its storage.
+  T& back() { return slots_[back_]; }
+  void publish() {
     // Hand the written slot over as the middle one, marked new; take the old middle as back.
     const std::uint8_t old =
         middle_.exchange(static_cast<std::uint8_t>(back_ | kNew), std::memory_order_acq_rel);

@@ -25,8 +25,12 @@
 #include "sim/simulation.hpp"
 #include "sim/version.hpp"
 #ifdef SCALPEL_HAVE_GUI
+#include "devices/playback_device.hpp"
+#include "devices/pointer_device.hpp"
+#include "sim/session.hpp"
 #include "viewer/gl.hpp"
 #include "viewer/pictures.hpp"
+#include "viewer/train_window.hpp"
 #endif
 
 namespace fs = std::filesystem;
@@ -253,6 +257,112 @@ int cmd_record(const RecordArgs& a) {
   return 0;
 }
 
+struct TrainArgs {
+  std::string scenario, device = "pointer", replay_log, record, serial, path, profiles_dir, size = "1024x640",
+                        screenshot;
+  double speed = 1.0, close_after = 0.0;
+  bool transparent = false, wireframe = false, close_at_end = false;
+};
+
+#ifdef SCALPEL_HAVE_GUI
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+}
+#endif
+
+int cmd_train(const TrainArgs& a) {
+#ifndef SCALPEL_HAVE_GUI
+  (void)a;
+  throw NoGraphics("this scalpelsim was built without the window (SCALPEL_BUILD_GUI=OFF)");
+#else
+  const fs::path scenario_path = a.scenario.empty() ? default_scenario() : fs::path(a.scenario);
+  Scenario scenario = load_scenario(scenario_path);
+  TrainWindowOptions wo;
+  if (std::sscanf(a.size.c_str(), "%dx%d", &wo.width, &wo.height) != 2 || wo.width < 64 || wo.height < 64)
+    throw InputError("--size", 0, 0, "--size", "expected WIDTHxHEIGHT, at least 64 pixels each");
+  std::unique_ptr<Device> device;
+  PointerDevice* pointer = nullptr;
+  PlaybackDevice* playback = nullptr;
+  std::string device_name = a.device;
+  if (a.device == "pointer") {
+    // The mouse moves the tool in world coordinates: the scenario's device mapping is for its device.
+    scenario.device.mapping = DeviceMapping{};
+    PointerMapping m;
+    m.metres_per_pixel = 1e-4;
+    m.metres_per_notch = 0.25e-3;
+    m.key_speed = 0.005;
+    const ScenarioMesh sm = load_scenario_mesh(scenario);
+    Vec3 lo = sm.mesh.rest_positions().front(), hi = lo;
+    for (const Vec3& p : sm.mesh.rest_positions()) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    // The blade starts 3 mm above the skin, before the start of the target line when there is one.
+    m.home = scenario.task ? Vec3(scenario.task->path.front() - Vec3(0.003, 0, 0)) : Vec3((lo + hi) / 2);
+    m.home.z() = hi.z() + 0.003;
+    m.workspace_min = lo - Vec3::Constant(0.03);
+    m.workspace_max = hi + Vec3::Constant(0.03);
+    auto p = std::make_unique<PointerDevice>(m);
+    pointer = p.get();
+    device = std::move(p);
+  } else if (a.device == "mock") {
+    fs::path log = a.replay_log;
+    if (log.empty() && scenario.log) log = *scenario.log;
+    if (log.empty())
+      throw InputError(scenario_path.string(), 0, 0, "--replay", "--device mock needs --replay LOG");
+    auto p = std::make_unique<PlaybackDevice>(read_pose_log(log.string()));
+    p->set_speed(a.speed);
+    playback = p.get();
+    device = std::move(p);
+    device_name = "playback of " + log.string();
+  } else {
+    const std::string name = a.device.empty() ? scenario.device.profile : a.device;
+    const fs::path file =
+        fs::path(name).has_extension() ? fs::path(name) : fs::path(a.profiles_dir) / (name + ".yaml");
+    const DeviceProfile profile = load_device_profile(file.string());
+    device = open_device(profile, {a.serial, a.path});
+    device_name = profile.name;
+  }
+  SessionOptions so;
+  so.record = a.record;
+  so.device_name = device_name;
+  so.wireframe_edges = a.wireframe;
+  Session session(scenario, *device, playback, so);
+  wo.title = "scalpelsim: " + scenario.name;
+  wo.close_after = a.close_after;
+  wo.close_at_end = a.close_at_end;
+  wo.final_screenshot = a.screenshot;
+  wo.transparent = a.transparent;
+  wo.wireframe = a.wireframe;
+  wo.stop = &g_stop;
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  const TrainWindowResult r = run_train_window(session, pointer, playback, wo);
+  if (!session.haptic_warning().empty()) std::cerr << "warning: " << session.haptic_warning() << "\n";
+  const SessionFrame& last = session.frame();
+  const std::vector<double> periods = session.haptic_periods();
+  std::cout << "session on " << scenario_path.string() << ": " << last.status.time << " s\n";
+  if (last.status.has_task)
+    std::cout << "  task score " << last.status.task.score << " (coverage " << 100 * last.status.task.coverage
+              << " %)\n";
+  std::cout << "  render frame p50 " << 1e3 * quantile(r.render_seconds, 0.5) << " ms, p99 "
+            << 1e3 * quantile(r.render_seconds, 0.99) << " ms over " << r.render_seconds.size() << " frames\n"
+            << "  simulation frame p50 " << 1e3 * quantile(session.frame_seconds(), 0.5) << " ms, p99 "
+            << 1e3 * quantile(session.frame_seconds(), 0.99) << " ms\n"
+            << "  haptic period p50 " << 1e6 * quantile(periods, 0.5) << " us, p99 "
+            << 1e6 * quantile(periods, 0.99) << " us, max " << 1e6 * quantile(periods, 1.0) << " us\n";
+  for (const auto& p : session.recordings()) std::cout << "  recorded " << p.string() << "\n";
+  for (const auto& p : r.screenshots) std::cout << "  screenshot " << p.string() << "\n";
+  if (session.failed()) {
+    std::cerr << "error: the session stopped: " << session.error() << "\n";
+    return 3;
+  }
+  return 0;
+#endif
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -319,6 +429,33 @@ int main(int argc, char** argv) {
   record_cmd->add_option("--replay", rec.replay_log, "With --device mock: the log the mock device replays");
   record_cmd->add_option("--profiles", rec.profiles_dir, "Folder of device profiles")->capture_default_str();
 
+  TrainArgs tr;
+  tr.profiles_dir = profiles_dir;
+  auto* train_cmd = app.add_subcommand("train", "Cut the scenario's tissue live in a window");
+  train_cmd->add_option("scenario", tr.scenario,
+                        "Scenario YAML (default: config/scenarios/skin_incision.yaml)");
+  train_cmd
+      ->add_option("--device", tr.device,
+                   "pointer (mouse and keys), mock (play back --replay), or a device profile name or file")
+      ->capture_default_str();
+  train_cmd->add_option("--replay", tr.replay_log,
+                        "With --device mock: the log to play back (default: the scenario's)");
+  train_cmd->add_option("--speed", tr.speed, "With --device mock: playback speed, 0.25 to 4")
+      ->check(CLI::Range(0.25, 4.0));
+  train_cmd->add_option("--record", tr.record,
+                        "Record the session to this pose log (a reset starts LOG.2, ...)");
+  train_cmd->add_option("--serial", tr.serial, "Open the device with this serial number");
+  train_cmd->add_option("--path", tr.path, "Open the device at this path");
+  train_cmd->add_option("--profiles", tr.profiles_dir, "Folder of device profiles")->capture_default_str();
+  train_cmd->add_option("--size", tr.size, "Window size, WIDTHxHEIGHT")->capture_default_str();
+  train_cmd->add_option("--close-after", tr.close_after, "Close the window after this many seconds")
+      ->check(CLI::NonNegativeNumber);
+  train_cmd->add_flag("--close-at-end", tr.close_at_end,
+                      "With --device mock: close when the log has been played");
+  train_cmd->add_option("--screenshot", tr.screenshot, "Write a screenshot (PNG) as the window closes");
+  train_cmd->add_flag("--see-through", tr.transparent, "Start with the skin see-through");
+  train_cmd->add_flag("--tetrahedra", tr.wireframe, "Start with the tetrahedra's edges drawn");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, image_args);
@@ -327,6 +464,7 @@ int main(int argc, char** argv) {
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
     if (*record_cmd) return cmd_record(rec);
+    if (*train_cmd) return cmd_train(tr);
   } catch (const InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

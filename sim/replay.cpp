@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <optional>
 
 #include "cutting/input_error.hpp"
 #include "cutting/mesh_io.hpp"
@@ -15,6 +16,7 @@
 #include "haptics/haptic_loop.hpp"
 #include "haptics/tool_queue.hpp"
 #include "sim/simulation.hpp"
+#include "sim/task_score.hpp"
 #include "sim/version.hpp"
 
 namespace scalpel {
@@ -54,67 +56,18 @@ json mesh_json(const MeshSummary& s) {
        {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}}}};
 }
 
-// Distance from p to the polyline in the xy plane [m].
-double lateral_distance(const std::vector<Vec3>& path, const Vec3& p) {
-  double best = std::numeric_limits<double>::infinity();
-  for (size_t i = 0; i + 1 < path.size(); ++i) {
-    const Eigen::Vector2d a = path[i].head<2>(), b = path[i + 1].head<2>(), q = p.head<2>();
-    const Eigen::Vector2d d = b - a;
-    const double t = d.squaredNorm() > 0 ? std::clamp((q - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
-    best = std::min(best, (a + t * d - q).norm());
-  }
-  return best;
-}
-
-// Task score (docs/formats.md): how much of the target path the incision covers within the
-// tolerance, how far it strays, and whether its depth is in the accepted range.
-json task_score(const Task& task, const std::vector<Vec3>& cuts, double surface_z) {
+// The task's score as report JSON (docs/formats.md).
+json task_json(const TaskScore& t) {
   json j;
-  double length = 0;
-  for (size_t i = 0; i + 1 < task.path.size(); ++i)
-    length += (task.path[i + 1] - task.path[i]).head<2>().norm();
-  // Coverage: path stations every tolerance/4 with a cut point within the tolerance.
-  const double step = task.tolerance / 4;
-  std::size_t stations = 0, covered = 0;
-  for (size_t i = 0; i + 1 < task.path.size(); ++i) {
-    const Vec3 a = task.path[i], b = task.path[i + 1];
-    const int n = std::max(1, static_cast<int>(std::ceil((b - a).head<2>().norm() / step)));
-    for (int k = 0; k < n; ++k) {
-      const Vec3 p = a + (b - a) * (static_cast<double>(k) / n);
-      ++stations;
-      for (const Vec3& c : cuts)
-        if ((c - p).head<2>().norm() <= task.tolerance) {
-          ++covered;
-          break;
-        }
-    }
-  }
-  double max_dev = 0, sum_dev = 0, max_depth = 0;
-  std::size_t outside = 0;
-  for (const Vec3& c : cuts) {
-    const double d = lateral_distance(task.path, c);
-    max_dev = std::max(max_dev, d);
-    sum_dev += d;
-    outside += d > task.tolerance ? 1 : 0;
-    max_depth = std::max(max_depth, surface_z - c.z());
-  }
-  const double coverage = stations ? static_cast<double>(covered) / static_cast<double>(stations) : 0.0;
-  const bool depth_ok = !cuts.empty() && max_depth >= task.depth_min && max_depth <= task.depth_max;
-  const double mean_dev = cuts.empty() ? 0.0 : sum_dev / static_cast<double>(cuts.size());
-  // 100 for a cut that covers the whole path, stays on it and reaches the right depth.
-  const double score =
-      100.0 * coverage * std::max(0.0, 1.0 - mean_dev / task.tolerance) * (depth_ok ? 1.0 : 0.5);
-  j["path_length"] = length;
-  j["tolerance"] = task.tolerance;
-  j["coverage"] = coverage;
-  j["cut_points"] = cuts.size();
-  j["cut_points_outside_tolerance"] = outside;
-  j["lateral_deviation"] = {{"mean", mean_dev}, {"max", max_dev}};
-  j["depth"] = {{"max", max_depth},
-                {"min_accepted", task.depth_min},
-                {"max_accepted", task.depth_max},
-                {"ok", depth_ok}};
-  j["score"] = score;
+  j["path_length"] = t.path_length;
+  j["tolerance"] = t.tolerance;
+  j["coverage"] = t.coverage;
+  j["cut_points"] = t.cut_points;
+  j["cut_points_outside_tolerance"] = t.outside;
+  j["lateral_deviation"] = {{"mean", t.mean_deviation}, {"max", t.max_deviation}};
+  j["depth"] = {
+      {"max", t.max_depth}, {"min_accepted", t.depth_min}, {"max_accepted", t.depth_max}, {"ok", t.depth_ok}};
+  j["score"] = t.score;
   return j;
 }
 
@@ -184,13 +137,19 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   const auto wall_start = std::chrono::steady_clock::now();
   std::vector<ToolSample> log = read_pose_log(log_path.string());
   if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
+  // A live session's recording is played sample by sample with its own times (docs/formats.md).
+  const std::optional<std::string> playback = PoseLogReader(log_path.string()).metadata("playback");
+  if (playback && *playback != "verbatim" && *playback != "interpolate")
+    throw InputError(log_path.string(), 0, 0, "playback",
+                     "'" + *playback + "' is not a playback: verbatim or interpolate");
+  const bool verbatim = playback && *playback == "verbatim";
 
   Simulation sim(scenario);
   const MeshSummary initial = summarize(sim.mesh());
   const double surface_z = initial.box_max.z();
 
   // The spine: mock device -> haptic loop -> queue -> simulation, on the virtual clock.
-  MockDevice device(log);
+  MockDevice device(log, verbatim ? MockDevice::Playback::Verbatim : MockDevice::Playback::Interpolate);
   ToolQueue queue(static_cast<std::size_t>(scenario.device.queue_capacity));
   ForceChannel forces;
   HapticLoopConfig config;
@@ -200,20 +159,41 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
 
   const double duration = log.back().t - log.front().t;
   const double visual_rate = scenario.simulation.visual_rate;
-  const auto frames = static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
+  // Verbatim: the session's frames, up to the one of the last sample (its times are session times).
+  const auto frames = verbatim ? static_cast<std::size_t>(std::floor(log.back().t * visual_rate)) + 1
+                               : static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
   std::size_t cycles = 0;
   std::vector<double> frame_seconds;
-  ToolSample sample;
+  ToolSample sample, held;
+  bool has_held = false;
   for (std::size_t k = 1; k <= frames; ++k) {
     const auto frame_start = std::chrono::steady_clock::now();
-    // Haptic cycles up to the end of frame k: t < k / visual_rate.
-    const auto target =
-        static_cast<std::size_t>(std::ceil(static_cast<double>(k) * config.rate / visual_rate));
-    while (cycles < target) {
-      cycles += loop.run_cycles(target - cycles);
-      while (queue.pop(sample)) sim.on_sample(sample);  // a full queue only pauses the producer
+    const double end = static_cast<double>(k) / visual_rate;
+    if (verbatim) {
+      // The samples with t < end, as the live session cut its frames (sim/session.hpp).
+      while (true) {
+        if (!has_held) {
+          if (!queue.pop(held)) {
+            if (cycles >= log.size()) break;
+            cycles += loop.run_cycles(1);
+            continue;
+          }
+          has_held = true;
+        }
+        if (held.t >= end) break;
+        sim.on_sample(held);
+        has_held = false;
+      }
+    } else {
+      // Haptic cycles up to the end of frame k: t < k / visual_rate.
+      const auto target =
+          static_cast<std::size_t>(std::ceil(static_cast<double>(k) * config.rate / visual_rate));
+      while (cycles < target) {
+        cycles += loop.run_cycles(target - cycles);
+        while (queue.pop(sample)) sim.on_sample(sample);  // a full queue only pauses the producer
+      }
     }
-    sim.end_frame(static_cast<double>(k) / visual_rate, forces);
+    sim.end_frame(end, forces);
     frame_seconds.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
     if (options.on_frame) options.on_frame(sim, k, k == frames);
@@ -341,7 +321,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
          {{"max", force_max},
           {"mean_in_contact", force_sum / std::max<double>(1.0, static_cast<double>(frames_in_contact))}}}};
   }
-  if (scenario.task) report["task"] = task_score(*scenario.task, cutter.cut_points(), surface_z);
+  if (scenario.task) report["task"] = task_json(score_task(*scenario.task, cutter.cut_points(), surface_z));
   // Tissue steps right after a cut (the mesh changed since the step before) and the others.
   std::vector<double> after_cut, without_cut;
   for (std::size_t k = 0; k < sim.tissue_step_seconds().size(); ++k)

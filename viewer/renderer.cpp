@@ -13,8 +13,10 @@ namespace scalpel {
 namespace {
 
 // Skin and wound: one light from above the eye's right shoulder, fixed to the camera, and an
-// ambient term. A back face is the inside of the tissue, seen only where a section plane opens it:
-// flat and darker, in the colour of the face's region, so the layers show in the section.
+// ambient term. Every triangle carries its own face normal, so lighting at the vertices is exact and
+// the fragment stage only picks a colour: software rasterisers spend their time per fragment. A
+// back face is the inside of the tissue, seen only where a section plane opens it: flat and darker,
+// in the colour of the face's region, so the layers show in the section.
 constexpr const char* kSurfaceVertex = R"(#version 330 core
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
@@ -22,39 +24,33 @@ layout(location = 2) in float a_region;
 uniform mat4 u_mvp;
 uniform mat4 u_view;
 uniform vec4 u_clip;
-out vec3 v_normal;
-flat out int v_region;
-void main() {
-  gl_Position = u_mvp * vec4(a_position, 1.0);
-  gl_ClipDistance[0] = dot(u_clip, vec4(a_position, 1.0));
-  v_normal = mat3(u_view) * a_normal;
-  v_region = int(floor(a_region + 0.5));
-}
-)";
-
-constexpr const char* kSurfaceFragment = R"(#version 330 core
-in vec3 v_normal;
-flat in int v_region;
 uniform vec3 u_regions[4];
 uniform vec3 u_wound;
 uniform vec3 u_section;
 uniform float u_alpha;
-out vec4 o_colour;
+out vec4 v_front;
+out vec4 v_back;
 void main() {
-  if (!gl_FrontFacing) {
-    o_colour = vec4(v_region < 0 ? u_section : 0.8 * u_regions[clamp(v_region, 0, 3)], 1.0);
-    return;
-  }
-  vec3 n = normalize(v_normal);
+  gl_Position = u_mvp * vec4(a_position, 1.0);
+  gl_ClipDistance[0] = dot(u_clip, vec4(a_position, 1.0));
+  int region = int(floor(a_region + 0.5));
+  bool wound = region < 0;
+  vec3 base = wound ? u_wound : u_regions[clamp(region, 0, 3)];
+  vec3 n = normalize(mat3(u_view) * a_normal);
   vec3 light = normalize(vec3(0.35, 0.55, 1.0));
-  float diffuse = max(dot(n, light), 0.0);
-  bool wound = v_region < 0;
-  vec3 base = wound ? u_wound : u_regions[clamp(v_region, 0, 3)];
-  vec3 colour = base * (0.35 + 0.65 * diffuse);
+  vec3 colour = base * (0.35 + 0.65 * max(dot(n, light), 0.0));
   // The wound is wet: a small highlight.
   if (wound) colour += vec3(0.25) * pow(max(dot(reflect(-light, n), vec3(0.0, 0.0, 1.0)), 0.0), 24.0);
-  o_colour = vec4(colour, wound ? 1.0 : u_alpha);
+  v_front = vec4(colour, wound ? 1.0 : u_alpha);
+  v_back = vec4(wound ? u_section : 0.8 * base, 1.0);
 }
+)";
+
+constexpr const char* kSurfaceFragment = R"(#version 330 core
+in vec4 v_front;
+in vec4 v_back;
+out vec4 o_colour;
+void main() { o_colour = gl_FrontFacing ? v_front : v_back; }
 )";
 
 constexpr const char* kFlatVertex = R"(#version 330 core

@@ -1,0 +1,111 @@
+// The window's cost (viewer/): the snapshot the simulation thread fills after each frame, and the
+// render thread's frame, on the bundled skin patch (4 950 tetrahedra) and on the same patch at
+// twice the resolution in the plane (19 800), both cut by the bundled incision. Rendering is
+// offscreen (EGL); on a machine without a GPU Mesa draws with llvmpipe. Prints p50 and p99.
+//
+//   ./build/release/bench/bench_render [frames]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "sim/replay.hpp"
+#include "sim/scenario.hpp"
+#include "sim/simulation.hpp"
+#include "viewer/gl.hpp"
+#include "viewer/pictures.hpp"
+#include "viewer/renderer.hpp"
+
+using namespace scalpel;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double quantile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+}
+
+struct Cut {
+  FrameSnapshot snapshot, with_edges;
+  std::vector<double> fill_seconds, fill_edges_seconds;
+  double frame_seconds_p50 = 0;  // the simulation's own frame, for scale
+};
+
+// Replays the bundled incision on the bundled scenario with `cells` in the plane; at the last frame
+// fills the snapshot `fills` times, timed.
+Cut cut_patch(const std::string& cells, int fills) {
+  const fs::path file = fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml";
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string key = "cells: [15, 11]";
+  yaml.replace(yaml.find(key), key.size(), "cells: " + cells);
+  const Scenario scenario = parse_scenario(yaml, file.string(), file.parent_path());
+  Cut c;
+  ReplayOptions options;
+  options.out_dir = fs::temp_directory_path() / "scalpelsim_bench_render";
+  options.on_frame = [&](const Simulation& sim, std::size_t, bool last) {
+    if (!last) return;
+    for (int i = 0; i < fills; ++i) {
+      const auto t0 = Clock::now();
+      sim.snapshot(c.snapshot);
+      const auto t1 = Clock::now();
+      sim.snapshot(c.with_edges, true);
+      const auto t2 = Clock::now();
+      c.fill_seconds.push_back(std::chrono::duration<double>(t1 - t0).count());
+      c.fill_edges_seconds.push_back(std::chrono::duration<double>(t2 - t1).count());
+    }
+  };
+  const ReplayResult r = replay(scenario, *scenario.log, options);
+  c.frame_seconds_p50 = 1e-3 * r.report["timings"]["frame_ms"]["p50"].get<double>();
+  return c;
+}
+
+void render(const char* name, OffscreenRenderer& renderer, const FrameSnapshot& s, const RenderOptions& o,
+            int frames) {
+  const Camera camera = replay_views(s, static_cast<double>(renderer.width()) / renderer.height())[1].camera;
+  std::vector<double> t;
+  for (int i = 0; i < frames; ++i) {
+    const auto t0 = Clock::now();
+    (void)renderer.render(s, camera, o);  // draws, resolves and reads the picture back
+    t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  std::printf("  %-44s p50 %6.2f ms  p99 %6.2f ms\n", name, 1e3 * quantile(t, 0.5), 1e3 * quantile(t, 0.99));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int frames = argc > 1 ? std::max(1, std::atoi(argv[1])) : 100;
+  OffscreenRenderer renderer(1280, 800);
+  std::printf("renderer: %s, %s; 1280 x 800, 4x multisampled, with read-back\n",
+              reinterpret_cast<const char*>(glGetString(GL_RENDERER)),
+              reinterpret_cast<const char*>(glGetString(GL_VERSION)));
+  for (const auto& [cells, label] : {std::pair{std::string("[15, 11]"), "bundled patch"},
+                                     std::pair{std::string("[30, 22]"), "patch at twice the resolution"}}) {
+    const Cut c = cut_patch(cells, frames);
+    std::printf("%s, cut: %zu tetrahedra, %zu surface triangles (%zu wound), %zu edges\n", label,
+                c.snapshot.tetrahedra, c.snapshot.surface.size() / 3, c.snapshot.wound_vertices / 3,
+                c.with_edges.edges.size() / 2);
+    std::printf("  %-44s p50 %6.2f ms  p99 %6.2f ms  (simulation frame p50 %.2f ms)\n",
+                "snapshot (simulation thread)", 1e3 * quantile(c.fill_seconds, 0.5),
+                1e3 * quantile(c.fill_seconds, 0.99), 1e3 * c.frame_seconds_p50);
+    std::printf("  %-44s p50 %6.2f ms  p99 %6.2f ms\n", "snapshot with edges",
+                1e3 * quantile(c.fill_edges_seconds, 0.5), 1e3 * quantile(c.fill_edges_seconds, 0.99));
+    RenderOptions plain, see_through, edges;
+    see_through.transparent_skin = true;
+    edges.wireframe = true;
+    render("render frame", renderer, c.snapshot, plain, frames);
+    render("render frame, see-through skin", renderer, c.snapshot, see_through, frames);
+    render("render frame, tetrahedra", renderer, c.with_edges, edges, frames);
+  }
+  return 0;
+}

@@ -1,0 +1,245 @@
+#include "sim/session.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <exception>
+
+#include "sim/simulation.hpp"
+
+namespace scalpel {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The file of attempt n (from 1): the given path, then <stem>.2<ext>, <stem>.3<ext>, ...
+std::filesystem::path attempt_path(const std::filesystem::path& path, std::size_t n) {
+  if (n <= 1) return path;
+  std::filesystem::path p = path;
+  p.replace_filename(path.stem().string() + "." + std::to_string(n) + path.extension().string());
+  return p;
+}
+
+constexpr std::size_t kFrameWindow = 256;  // frames of the overlay's p99
+
+}  // namespace
+
+Session::Session(Scenario scenario, Device& device, PlaybackDevice* playback, SessionOptions options)
+    : scenario_(std::move(scenario)),
+      device_(device),
+      playback_(playback),
+      options_(std::move(options)),
+      queue_(static_cast<std::size_t>(scenario_.device.queue_capacity)) {
+  HapticLoopConfig config;
+  config.rate = scenario_.device.rate;
+  config.period_log = static_cast<std::size_t>(config.rate * 600);  // ten minutes
+  loop_ = std::make_unique<HapticLoop>(device_, queue_, forces_, config);
+  edges_.store(options_.wireframe_edges);
+  begin_attempt();
+  publish_frame(0.0);  // the uncut tissue, before the first frame
+}
+
+Session::~Session() {
+  stop();
+}
+
+void Session::start() {
+  if (started_) return;
+  loop_->start();
+  try {
+    sim_thread_ = std::thread([this] { sim_main(); });
+  } catch (...) {
+    loop_->stop();
+    throw;
+  }
+  started_ = true;
+}
+
+void Session::stop() {
+  stop_.store(true, std::memory_order_release);
+  if (sim_thread_.joinable()) sim_thread_.join();
+  loop_->stop();
+  if (writer_) {
+    try {
+      writer_->flush();
+    } catch (const std::exception& e) {
+      if (!failed_.load()) {
+        error_ = e.what();
+        failed_.store(true, std::memory_order_release);
+      }
+    }
+  }
+}
+
+void Session::set_paused(bool paused) {
+  paused_.store(paused, std::memory_order_relaxed);
+  if (playback_) playback_->set_paused(paused);
+}
+
+std::string Session::error() const {
+  return failed_.load(std::memory_order_acquire) ? error_ : std::string();
+}
+
+std::vector<std::filesystem::path> Session::recordings() const {
+  return recordings_;
+}
+
+void Session::begin_attempt() {
+  sim_ = std::make_unique<Simulation>(scenario_);
+  FrameSnapshot probe;
+  sim_->snapshot(probe);
+  surface_z_ = probe.bounds_max.z();
+  if (options_.record.empty()) return;
+  if (writer_) writer_->flush();
+  const std::filesystem::path path = attempt_path(options_.record, recordings_.size() + 1);
+  char rate[32];
+  std::snprintf(rate, sizeof rate, "%g Hz", scenario_.device.rate);
+  // verbatim: replayed sample by sample, with the times the simulation saw (docs/formats.md).
+  writer_ = std::make_unique<PoseLogWriter>(path.string(),
+                                            PoseLogMetadata{{"device", options_.device_name},
+                                                            {"scenario", scenario_.name},
+                                                            {"rate", rate},
+                                                            {"playback", "verbatim"}},
+                                            true);
+  recordings_.push_back(path);
+}
+
+void Session::publish_frame(double frame_seconds) {
+  SessionFrame& f = frames_.back();
+  sim_->snapshot(f.snapshot, edges_.load(std::memory_order_relaxed));
+  f.snapshot.frame = frame_seconds_.size();
+  SessionStatus& s = f.status;
+  s.time = sim_->time();
+  s.frame_seconds = frame_seconds;
+  const std::size_t n = std::min(frame_seconds_.size(), kFrameWindow);
+  if (n > 0) {
+    std::vector<double> recent(frame_seconds_.end() - static_cast<std::ptrdiff_t>(n), frame_seconds_.end());
+    const auto at = recent.begin() + static_cast<std::ptrdiff_t>(std::min(n - 1, (n * 99) / 100));
+    std::nth_element(recent.begin(), at, recent.end());
+    s.frame_seconds_p99 = *at;
+  }
+  const HapticStats hs = loop_->stats();
+  s.haptic_rate = hs.period_mean > 0 ? 1.0 / hs.period_mean : 0.0;
+  s.haptic_jitter = hs.period_error_rms;
+  s.haptic_error_max = hs.period_error_max;
+  s.device_ok = hs.device_not_ok == last_not_ok_;  // no cycle without a pose since the last frame
+  s.device_not_ok = last_not_ok_ = hs.device_not_ok;
+  s.hand_force = sim_->samples() > 0 ? sim_->last_sample().force.norm() : 0.0;
+  s.paused = paused();
+  // Ended for the trainee when the simulation has also taken every pose the device sent.
+  s.playback_ended = playback_ && playback_->position() >= playback_->duration() &&
+                     hs.samples_pushed == popped_ && !holding_;
+  s.has_task = scenario_.task.has_value();
+  if (s.has_task) s.task = score_task(*scenario_.task, sim_->cutter().cut_points(), surface_z_);
+  s.recorded = writer_ ? writer_->samples_written() : 0;
+  frames_.publish();
+}
+
+void Session::sim_main() noexcept {
+  try {
+    run_frames();
+  } catch (const std::exception& e) {
+    error_ = e.what();
+    failed_.store(true, std::memory_order_release);
+  } catch (...) {
+    error_ = "the simulation stopped on an unknown error";
+    failed_.store(true, std::memory_order_release);
+  }
+  try {
+    if (writer_) writer_->flush();
+  } catch (...) {
+    // stop() reports a failed flush.
+  }
+}
+
+void Session::run_frames() {
+  const double visual_rate = scenario_.simulation.visual_rate;
+  const double frame = 1.0 / visual_rate;
+  const double half_period = 0.5 / scenario_.device.rate;
+  // Without a sample past a frame's end this long after its deadline (the device is silent: frozen,
+  // unplugged, at the end of a playback), the frame ends anyway, so the tissue keeps real time.
+  const auto grace = std::chrono::duration<double>(5.0 / scenario_.device.rate);
+  const auto frame_duration =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(frame));
+
+  std::size_t k = 0;      // frames of this attempt
+  double origin = 0.0;    // loop time of session time 0
+  bool anchored = false;  // origin set: it is set from the first sample, and again after a pause
+  ToolSample held;        // the first sample past the current frame, while holding_
+  std::size_t since_flush = 0;
+  auto deadline = Clock::now() + frame_duration;
+
+  while (!stop_.load(std::memory_order_acquire)) {
+    const std::uint64_t resets = reset_requests_.load(std::memory_order_acquire);
+    if (resets != resets_done_) {
+      if (playback_) {
+        // Wait (briefly) until the device plays from the start, then drop what it sent before.
+        const std::uint64_t request = playback_->restart();
+        const auto until = Clock::now() + std::chrono::milliseconds(200);
+        while (playback_->restarts() < request && Clock::now() < until)
+          std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+      ToolSample drop;
+      while (queue_.pop(drop)) ++popped_;
+      resets_done_ = resets;
+      frame_seconds_.clear();
+      begin_attempt();
+      k = 0;
+      anchored = holding_ = false;
+      publish_frame(0.0);
+      deadline = Clock::now() + frame_duration;
+      continue;
+    }
+    if (paused()) {
+      // Nothing moves; what the device sends meanwhile is not part of the attempt.
+      ToolSample drop;
+      while (queue_.pop(drop)) ++popped_;
+      anchored = holding_ = false;
+      publish_frame(0.0);
+      std::this_thread::sleep_for(frame_duration);
+      deadline = Clock::now() + frame_duration;
+      continue;
+    }
+
+    std::this_thread::sleep_until(deadline);
+    const double end = static_cast<double>(k + 1) / visual_rate;
+    // The frame's samples: every one with t < end, in order; the first one past it waits.
+    const auto give_up = Clock::now() + grace;
+    while (true) {
+      if (!holding_) {
+        if (!queue_.pop(held)) {
+          if (Clock::now() > give_up) break;
+          std::this_thread::sleep_for(std::chrono::microseconds(200));
+          continue;
+        }
+        ++popped_;
+        holding_ = true;
+        if (!anchored) {
+          // Session time continues where the attempt stood, half a haptic period into the frame.
+          origin = held.t - static_cast<double>(k) * frame - half_period;
+          anchored = true;
+        }
+        held.t -= origin;
+      }
+      if (held.t >= end) break;
+      if (writer_) writer_->write(held);
+      sim_->on_sample(held);
+      holding_ = false;
+    }
+    const auto start = Clock::now();
+    sim_->end_frame(end, forces_);
+    ++k;
+    frame_seconds_.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+    publish_frame(frame_seconds_.back());
+    if (writer_ && ++since_flush * frame >= 0.1) {  // a killed session keeps all but 0.1 s
+      writer_->flush();
+      since_flush = 0;
+    }
+    deadline += frame_duration;
+    const auto now = Clock::now();
+    if (now > deadline + frame_duration) deadline = now;  // behind: do not try to catch up
+  }
+}
+
+}  // namespace scalpel

@@ -1,0 +1,134 @@
+// A live session (sim/session.hpp): the haptic loop on the real clock, the simulation in its own
+// thread, frames published for a renderer; its recording replays headless to the same mesh.
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include "devices/playback_device.hpp"
+#include "devices/pose_log.hpp"
+#include "sim/replay.hpp"
+#include "sim/scenario.hpp"
+#include "sim/session.hpp"
+#include "sim/simulation.hpp"
+
+using namespace scalpel;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+Scenario bundled() {
+  return load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
+}
+
+// Takes the session's frames until `done` holds for one, or the limit passes; false then.
+template <class Done>
+bool watch(Session& session, Done done, double limit_seconds = 600.0) {
+  const auto until = Clock::now() + std::chrono::duration<double>(limit_seconds);
+  while (Clock::now() < until && !session.failed()) {
+    if (session.update() && done(session.frame())) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a renderer's pace; nothing waits on it
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST_CASE("a live session's recording replays headless to the same mesh, bit for bit") {
+  const Scenario scenario = bundled();
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  PlaybackDevice device(read_pose_log(scenario.log->string()));
+  device.set_speed(4.0);
+  SessionOptions options;
+  options.record = dir / "session.csv";
+  options.device_name = "playback";
+  Session session(scenario, device, &device, options);
+  session.update();
+  const std::size_t uncut = session.frame().snapshot.tetrahedra;
+  REQUIRE(session.frame().snapshot.wound_vertices == 0);
+  session.start();
+  // Stop in the middle of the incision, while the device still sends poses.
+  const bool cutting =
+      watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut + 300; });
+  session.stop();
+  INFO(session.error());
+  REQUIRE(cutting);
+  REQUIRE_FALSE(session.failed());
+  REQUIRE(session.recordings().size() == 1);
+  const Simulation& live = session.simulation();
+
+  // The recording: every sample the simulation took, marked for verbatim playback.
+  PoseLogReader reader(session.recordings()[0].string());
+  CHECK(reader.metadata("playback") == "verbatim");
+  CHECK(reader.has_force());
+  std::size_t samples = 0;
+  for (ToolSample s; reader.next(s);) ++samples;
+  CHECK(samples == live.samples());
+
+  bool replayed = false;
+  std::vector<Vec3> positions;
+  std::size_t tets = 0, nodes = 0;
+  ReplayOptions ro;
+  ro.out_dir = dir / "replay";
+  ro.on_frame = [&](const Simulation& sim, std::size_t, bool last) {
+    if (!last) return;
+    replayed = true;
+    positions = sim.mesh().positions();
+    tets = sim.mesh().tet_count();
+    nodes = sim.mesh().node_count();
+  };
+  const ReplayResult r = replay(scenario, session.recordings()[0], ro);
+  REQUIRE(replayed);
+  CHECK(r.report["replay"]["samples"].get<std::size_t>() == live.samples());
+  CHECK(tets == live.mesh().tet_count());
+  CHECK(nodes == live.mesh().node_count());
+  REQUIRE(positions.size() == live.mesh().positions().size());
+  std::size_t differing = 0;
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    differing += positions[i] != live.mesh().positions()[i] ? 1 : 0;
+  CHECK(differing == 0);
+  CHECK(r.report["replay"]["frames"].get<std::size_t>() == live.tissue_steps().size());
+}
+
+TEST_CASE("a paused session stands still, and a reset starts a new attempt with its own recording") {
+  const Scenario scenario = bundled();
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_reset";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  PlaybackDevice device(read_pose_log(scenario.log->string()));
+  device.set_speed(4.0);
+  SessionOptions options;
+  options.record = dir / "attempt.csv";
+  Session session(scenario, device, &device, options);
+  session.update();
+  const std::size_t uncut = session.frame().snapshot.tetrahedra;
+  session.start();
+  REQUIRE(watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut; }));
+
+  session.set_paused(true);
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.paused; }));
+  const double paused_at = session.frame().status.time;
+  const std::size_t tets = session.frame().snapshot.tetrahedra;
+  // Some frames later (published while paused) nothing has moved.
+  int frames = 0;
+  REQUIRE(watch(session, [&](const SessionFrame&) { return ++frames == 10; }));
+  CHECK(session.frame().status.time == paused_at);
+  CHECK(session.frame().snapshot.tetrahedra == tets);
+  CHECK(device.paused());
+
+  session.set_paused(false);
+  session.request_reset();
+  REQUIRE(watch(session,
+                [&](const SessionFrame& f) { return !f.status.paused && f.snapshot.tetrahedra == uncut; }));
+  REQUIRE(watch(session, [&](const SessionFrame& f) { return f.status.time > 0.1; }));
+  session.stop();
+  REQUIRE_FALSE(session.failed());
+  const auto files = session.recordings();
+  REQUIRE(files.size() == 2);
+  CHECK(files[1] == dir / "attempt.2.csv");
+  for (const fs::path& f : files) CHECK(!read_pose_log(f.string()).empty());  // both complete and valid
+}

@@ -1,0 +1,339 @@
+#include "viewer/train_window.hpp"
+
+// GLFW's header after ours, without its own GL header: viewer/gl.hpp has declared OpenGL.
+#include "viewer/gl.hpp"
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "viewer/camera.hpp"
+#include "viewer/pictures.hpp"
+#include "viewer/renderer.hpp"
+
+namespace scalpel {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// What the GLFW callbacks change, reached through the window's user pointer.
+struct InputState {
+  double scroll = 0.0;  // [notches] the pointer's depth wheel, accumulated
+  double zoom = 0.0;    // [notches] camera zoom, this frame
+  bool pointer_mode = false;
+};
+
+void on_scroll(GLFWwindow* window, double, double dy) {
+  auto* s = static_cast<InputState*>(glfwGetWindowUserPointer(window));
+  if (ImGui::GetCurrentContext() && ImGui::GetIO().WantCaptureMouse) return;
+  const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
+                    glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
+  if (s->pointer_mode && !ctrl)
+    s->scroll += dy;
+  else
+    s->zoom += dy;
+}
+
+void on_glfw_error(int code, const char* description) {
+  std::fprintf(stderr, "GLFW error %d: %s\n", code, description);
+}
+
+Image read_back_buffer(int width, int height) {
+  Image im{width, height, std::vector<std::uint8_t>(static_cast<std::size_t>(width) * height * 3)};
+  glReadBuffer(GL_BACK);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, im.rgb.data());
+  const std::size_t row = static_cast<std::size_t>(width) * 3;
+  for (int y = 0; y < height / 2; ++y)
+    std::swap_ranges(im.rgb.begin() + static_cast<std::ptrdiff_t>(y * row),
+                     im.rgb.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
+                     im.rgb.begin() + static_cast<std::ptrdiff_t>((height - 1 - y) * row));
+  return im;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  const auto at =
+      v.begin() + static_cast<std::ptrdiff_t>(std::min(v.size() - 1, static_cast<std::size_t>(q * v.size())));
+  std::nth_element(v.begin(), at, v.end());
+  return *at;
+}
+
+// Owns GLFW and Dear ImGui for the window's lifetime.
+class WindowSystem {
+ public:
+  WindowSystem(const TrainWindowOptions& o, InputState& input) {
+    glfwSetErrorCallback(on_glfw_error);
+    if (!glfwInit())
+      throw RenderError("no display for the window: set DISPLAY, or run under xvfb-run for a virtual one");
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    glfwWindowHint(GLFW_SAMPLES, 0);
+    window = glfwCreateWindow(o.width, o.height, o.title.c_str(), nullptr, nullptr);
+    if (!window) {
+      glfwTerminate();
+      throw RenderError("no OpenGL 3.3 core context on this display");
+    }
+    glfwMakeContextCurrent(window);
+    glfwSwapInterval(1);
+    glfwSetWindowUserPointer(window, &input);
+    glfwSetScrollCallback(window, on_scroll);  // before ImGui, which chains to it
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the user's folder
+    ImGui::StyleColorsDark();
+    ImGui_ImplGlfw_InitForOpenGL(window, true);
+    ImGui_ImplOpenGL3_Init("#version 330 core");
+  }
+  ~WindowSystem() {
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+    glfwDestroyWindow(window);
+    glfwTerminate();
+  }
+  WindowSystem(const WindowSystem&) = delete;
+  WindowSystem& operator=(const WindowSystem&) = delete;
+
+  GLFWwindow* window = nullptr;
+};
+
+bool key_down(GLFWwindow* w, int key) {
+  return glfwGetKey(w, key) == GLFW_PRESS;
+}
+
+// A key that went down since the last frame.
+class KeyEdges {
+ public:
+  bool pressed(GLFWwindow* w, int key) {
+    const bool down = key_down(w, key);
+    bool& was = state_[static_cast<std::size_t>(key) % state_.size()];
+    const bool edge = down && !was;
+    was = down;
+    return edge;
+  }
+
+ private:
+  std::array<bool, GLFW_KEY_LAST + 1> state_{};
+};
+
+void text_row(const char* label, const char* format, double value) {
+  ImGui::TextUnformatted(label);
+  ImGui::SameLine(170);
+  ImGui::Text(format, value);
+}
+
+}  // namespace
+
+TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, PlaybackDevice* playback,
+                                   const TrainWindowOptions& o) {
+  InputState input;
+  input.pointer_mode = pointer != nullptr;
+  WindowSystem ws(o, input);
+  GLFWwindow* window = ws.window;
+  Renderer renderer;
+  const auto* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  const std::string renderer_name = gl_renderer ? gl_renderer : "unknown";
+  RenderOptions render_options;
+  render_options.transparent_skin = o.transparent;
+  render_options.wireframe = o.wireframe;
+  session.set_wireframe_edges(o.wireframe);
+
+  int fw = 0, fh = 0;
+  glfwGetFramebufferSize(window, &fw, &fh);
+  session.update();
+  Camera camera = replay_views(session.frame().snapshot, static_cast<double>(fw) / std::max(fh, 1))[1].camera;
+  const Camera home_camera = camera;
+
+  TrainWindowResult result;
+  KeyEdges keys;
+  bool show_help = true, screenshot = false;
+  double last_x = 0, last_y = 0;
+  glfwGetCursorPos(window, &last_x, &last_y);
+  const auto opened = Clock::now();
+  session.start();
+
+  while (!glfwWindowShouldClose(window)) {
+    const auto frame_start = Clock::now();
+    glfwPollEvents();
+    const ImGuiIO& io = ImGui::GetIO();
+    glfwGetFramebufferSize(window, &fw, &fh);
+    int ww = 0, wh = 0;
+    glfwGetWindowSize(window, &ww, &wh);
+
+    // Camera: right drag orbits, middle (or Shift + right) drag pans, Ctrl + wheel, + and - zoom.
+    double cx = 0, cy = 0;
+    glfwGetCursorPos(window, &cx, &cy);
+    const double dx = cx - last_x, dy = cy - last_y;
+    last_x = cx;
+    last_y = cy;
+    const bool shift = key_down(window, GLFW_KEY_LEFT_SHIFT) || key_down(window, GLFW_KEY_RIGHT_SHIFT);
+    const bool right = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
+    const bool middle = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_MIDDLE) == GLFW_PRESS;
+    const bool dragging = !io.WantCaptureMouse && (right || middle);
+    if (dragging && (middle || shift))
+      camera.pan(-dx / std::max(wh, 1), dy / std::max(wh, 1));
+    else if (dragging)
+      camera.orbit(-dx * 0.008, dy * 0.008);
+    if (input.zoom != 0.0) camera.zoom(std::pow(0.9, input.zoom));
+    input.zoom = 0.0;
+
+    if (!io.WantCaptureKeyboard) {
+      if (keys.pressed(window, GLFW_KEY_ESCAPE)) glfwSetWindowShouldClose(window, GLFW_TRUE);
+      if (keys.pressed(window, GLFW_KEY_SPACE)) session.set_paused(!session.paused());
+      if (keys.pressed(window, GLFW_KEY_R)) session.request_reset();
+      if (keys.pressed(window, GLFW_KEY_T))
+        render_options.transparent_skin = !render_options.transparent_skin;
+      if (keys.pressed(window, GLFW_KEY_F)) render_options.wireframe = !render_options.wireframe;
+      if (keys.pressed(window, GLFW_KEY_P)) screenshot = true;
+      if (keys.pressed(window, GLFW_KEY_H)) show_help = !show_help;
+      if (keys.pressed(window, GLFW_KEY_C)) camera = home_camera;
+      if (keys.pressed(window, GLFW_KEY_EQUAL) || keys.pressed(window, GLFW_KEY_KP_ADD)) camera.zoom(0.8);
+      if (keys.pressed(window, GLFW_KEY_MINUS) || keys.pressed(window, GLFW_KEY_KP_SUBTRACT))
+        camera.zoom(1.25);
+      if (playback && keys.pressed(window, GLFW_KEY_LEFT_BRACKET)) playback->set_speed(playback->speed() / 2);
+      if (playback && keys.pressed(window, GLFW_KEY_RIGHT_BRACKET))
+        playback->set_speed(playback->speed() * 2);
+    }
+    session.set_wireframe_edges(render_options.wireframe);
+
+    if (pointer) {
+      // The cursor, turned with the camera, so the blade follows the hand on the screen: right is
+      // the view's right, down the screen is towards the eye.
+      const double s = std::sin(camera.yaw), c = std::cos(camera.yaw);
+      PointerInput in;
+      in.cursor_x = -cx * s + cy * c;
+      in.cursor_y = -(cx * c + cy * s);
+      in.scroll = input.scroll;
+      in.buttons = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS ? 1u : 0u;
+      if (!io.WantCaptureKeyboard) {
+        if (key_down(window, GLFW_KEY_UP)) in.keys |= PointerDevice::Raise;
+        if (key_down(window, GLFW_KEY_DOWN)) in.keys |= PointerDevice::Lower;
+        if (key_down(window, GLFW_KEY_LEFT)) in.keys |= PointerDevice::YawLeft;
+        if (key_down(window, GLFW_KEY_RIGHT)) in.keys |= PointerDevice::YawRight;
+        if (key_down(window, GLFW_KEY_PAGE_UP)) in.keys |= PointerDevice::PitchUp;
+        if (key_down(window, GLFW_KEY_PAGE_DOWN)) in.keys |= PointerDevice::PitchDown;
+      }
+      // The blade holds still while the camera moves, over the panel, and without the pointer.
+      const bool inside = cx >= 0 && cy >= 0 && cx < ww && cy < wh;
+      in.focused = glfwGetWindowAttrib(window, GLFW_FOCUSED) && inside && !dragging && !io.WantCaptureMouse &&
+                   !session.paused();
+      pointer->publish(in);
+    }
+
+    session.update();
+    const SessionFrame& f = session.frame();
+    const SessionStatus& st = f.status;
+    renderer.draw(f.snapshot, camera, render_options, fw, fh);
+
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(330, 0), ImGuiCond_FirstUseEver);
+    ImGui::Begin("Session");
+    ImGui::Text("%s   t = %.1f s%s", o.title.c_str(), st.time, st.paused ? "   PAUSED" : "");
+    if (!st.device_ok)
+      ImGui::TextColored(ImVec4(1, 0.5f, 0.2f, 1), "%s",
+                         playback ? "Playback at its end" : "Device not responding: the blade is frozen");
+    if (st.has_task) {
+      ImGui::Separator();
+      ImGui::TextDisabled("Your incision");
+      const TaskScore& t = st.task;
+      text_row("Score", "%.0f / 100", t.score);
+      text_row("Along the line", "%.0f %%", 100.0 * t.coverage);
+      ImGui::TextUnformatted("Off the line");
+      ImGui::SameLine(170);
+      ImGui::TextColored(
+          t.mean_deviation <= t.tolerance ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.4f, 0.4f, 1),
+          "%.2f mm (max %.1f)", 1e3 * t.mean_deviation, 1e3 * t.tolerance);
+      ImGui::TextUnformatted("Depth");
+      ImGui::SameLine(170);
+      ImGui::TextColored(t.depth_ok ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.8f, 0.3f, 1),
+                         "%.1f mm (aim %.1f-%.1f)", 1e3 * t.max_depth, 1e3 * t.depth_min, 1e3 * t.depth_max);
+    }
+    ImGui::Separator();
+    ImGui::TextDisabled("Hand and machine");
+    text_row("Force on the hand", "%.2f N", st.hand_force);
+    text_row("Haptic rate", "%.0f Hz", st.haptic_rate);
+    text_row("Haptic jitter (RMS)", "%.0f us", 1e6 * st.haptic_jitter);
+    text_row("Simulation frame", "%.1f ms", 1e3 * st.frame_seconds);
+    text_row("  p99 (last 256)", "%.1f ms", 1e3 * st.frame_seconds_p99);
+    const double render_p99 =
+        result.render_seconds.size() > 10
+            ? percentile({result.render_seconds.end() -
+                              std::min<std::ptrdiff_t>(
+                                  256, static_cast<std::ptrdiff_t>(result.render_seconds.size())),
+                          result.render_seconds.end()},
+                         0.99)
+            : 0.0;
+    text_row("Render frame p99", "%.1f ms", 1e3 * render_p99);
+    ImGui::Text("Tetrahedra %zu, nodes %zu", f.snapshot.tetrahedra, f.snapshot.nodes);
+    ImGui::TextDisabled("OpenGL: %s", renderer_name.c_str());
+    if (st.recorded > 0) ImGui::Text("Recording: %zu samples", st.recorded);
+    ImGui::Separator();
+    if (ImGui::Button(session.paused() ? "Resume (Space)" : "Pause (Space)"))
+      session.set_paused(!session.paused());
+    ImGui::SameLine();
+    if (ImGui::Button("Reset (R)")) session.request_reset();
+    ImGui::SameLine();
+    if (ImGui::Button("Screenshot (P)")) screenshot = true;
+    ImGui::Checkbox("See-through skin (T)", &render_options.transparent_skin);
+    ImGui::Checkbox("Tetrahedra (F)", &render_options.wireframe);
+    if (playback) {
+      float speed = static_cast<float>(playback->speed());
+      if (ImGui::SliderFloat("Speed", &speed, 0.25f, 4.0f, "%.2fx", ImGuiSliderFlags_Logarithmic))
+        playback->set_speed(speed);
+      ImGui::ProgressBar(
+          static_cast<float>(std::min(1.0, playback->position() / std::max(playback->duration(), 1e-9))));
+    }
+    if (ImGui::CollapsingHeader("Controls (H)", show_help ? ImGuiTreeNodeFlags_DefaultOpen : 0)) {
+      if (pointer)
+        ImGui::TextWrapped(
+            "Move the mouse: the blade follows over the skin. Wheel or Up/Down: lower and raise it. "
+            "Left/Right: turn its edge. PageUp/PageDown: tilt it. The blade cuts where its edge moves "
+            "forward through the tissue.");
+      ImGui::TextWrapped(
+          "Right drag: orbit. Middle or Shift+right drag: pan. %s: zoom. C: home view. Esc: close.",
+          pointer ? "Ctrl+wheel, + and -" : "Wheel, + and -");
+      if (playback) ImGui::TextWrapped("[ and ]: half and double speed. R: restart.");
+    }
+    ImGui::End();
+    ImGui::Render();
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+    // At the end of a playback: the device has run out and the simulation has taken its last pose.
+    const bool ended = o.close_at_end && playback && st.playback_ended && !st.device_ok;
+    const bool closing =
+        ended ||
+        (o.close_after > 0 && std::chrono::duration<double>(Clock::now() - opened).count() >= o.close_after);
+    if (screenshot || (closing && !o.final_screenshot.empty())) {
+      char name[64];
+      std::snprintf(name, sizeof name, "scalpelsim-%06zu.png", static_cast<std::size_t>(f.snapshot.frame));
+      const std::filesystem::path path =
+          closing && !o.final_screenshot.empty() ? o.final_screenshot : o.screenshot_dir / name;
+      write_png(read_back_buffer(fw, fh), path);
+      result.screenshots.push_back(path);
+      screenshot = false;
+    }
+    glfwSwapBuffers(window);
+    result.render_seconds.push_back(std::chrono::duration<double>(Clock::now() - frame_start).count());
+    if (closing || session.failed() || (o.stop && o.stop->load()))
+      glfwSetWindowShouldClose(window, GLFW_TRUE);
+  }
+  session.stop();
+  return result;
+}
+
+}  // namespace scalpel
