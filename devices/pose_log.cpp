@@ -12,11 +12,20 @@ namespace scalpel {
 
 namespace {
 
-constexpr std::array<std::string_view, 12> kColumns = {"t",  "x",  "y",       "z",  "qw", "qx",
-                                                       "qy", "qz", "buttons", "fx", "fy", "fz"};
+constexpr std::array<std::string_view, 13> kColumns = {"t",  "x",       "y",  "z",  "qw", "qx",   "qy",
+                                                       "qz", "buttons", "fx", "fy", "fz", "frame"};
 constexpr std::size_t kBaseColumns = 9;
 constexpr std::size_t kForceColumns = 12;
+constexpr std::size_t kFrameColumns = 13;
 constexpr std::string_view kHeaderText = "t,x,y,z,qw,qx,qy,qz,buttons";
+
+// "'text' problem", built by appending: GCC 12 warns (-Wrestrict, wrongly) about the inlined
+// concatenation of string temporaries here.
+std::string quoted(std::string_view text, std::string_view problem) {
+  std::string message = "'";
+  message.append(text).append("' ").append(problem);
+  return message;
+}
 
 bool is_blank(char c) {
   return c == ' ' || c == '\t';
@@ -36,7 +45,7 @@ struct FieldText {
 
 // Splits `line` at commas into at most out.size() fields; returns the number of fields found
 // (which may exceed out.size(): the extra ones are counted, not stored).
-std::size_t split(std::string_view line, std::array<FieldText, kForceColumns + 1>& out) {
+std::size_t split(std::string_view line, std::array<FieldText, kFrameColumns + 1>& out) {
   std::size_t count = 0, start = 0;
   while (true) {
     const std::size_t comma = line.find(',', start);
@@ -124,19 +133,21 @@ void PoseLogReader::read_preamble() {
       if (!key.empty()) metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
       continue;
     }
-    std::array<FieldText, kForceColumns + 1> fields;
+    std::array<FieldText, kFrameColumns + 1> fields;
     const std::size_t count = split(line_text_, fields);
-    for (std::size_t i = 0; i < std::min(count, kForceColumns); ++i)
+    constexpr std::string_view kOptional = "' optionally followed by ',fx,fy,fz' or ',fx,fy,fz,frame'";
+    for (std::size_t i = 0; i < std::min(count, kFrameColumns); ++i)
       if (fields[i].text != kColumns[i])
         fail(fields[i].column, kColumns[i],
              "bad header: column " + std::to_string(i + 1) + " is '" + std::string(fields[i].text) +
-                 "', expected '" + std::string(kHeaderText) + "' optionally followed by ',fx,fy,fz'");
-    if (count != kBaseColumns && count != kForceColumns)
-      fail(count > kForceColumns ? fields[kForceColumns].column : 0,
-           count < kForceColumns ? kColumns[count] : "",
+                 "', expected '" + std::string(kHeaderText) + std::string(kOptional));
+    if (count != kBaseColumns && count != kForceColumns && count != kFrameColumns)
+      fail(count > kFrameColumns ? fields[kFrameColumns].column : 0,
+           count < kFrameColumns ? kColumns[count] : "",
            "bad header: " + std::to_string(count) + " columns, expected '" + std::string(kHeaderText) +
-               "' optionally followed by ',fx,fy,fz'");
-    has_force_ = count == kForceColumns;
+               std::string(kOptional));
+    has_force_ = count >= kForceColumns;
+    has_frame_ = count == kFrameColumns;
     return;
   }
 }
@@ -148,8 +159,8 @@ bool PoseLogReader::next(ToolSample& sample) {
     line = trim(line_text_);
   } while (line.empty() || line.front() == '#');
 
-  std::array<FieldText, kForceColumns + 1> f;
-  const std::size_t expected = has_force_ ? kForceColumns : kBaseColumns;
+  std::array<FieldText, kFrameColumns + 1> f;
+  const std::size_t expected = has_frame_ ? kFrameColumns : has_force_ ? kForceColumns : kBaseColumns;
   const std::size_t count = split(line_text_, f);
   if (count < expected)
     fail(static_cast<int>(line_text_.size()) + 1, kColumns[count],
@@ -159,15 +170,15 @@ bool PoseLogReader::next(ToolSample& sample) {
          "expected " + std::to_string(expected) + " fields, found " + std::to_string(count));
 
   std::array<double, kForceColumns> v{};
-  for (std::size_t i = 0; i < expected; ++i) {
+  for (std::size_t i = 0; i < std::min(expected, kForceColumns); ++i) {
     if (i == 8) continue;  // buttons, below
     switch (parse_double(f[i].text, v[i])) {
       case Parse::Ok:
         break;
       case Parse::NotNumber:
-        fail(f[i].column, kColumns[i], "'" + std::string(f[i].text) + "' is not a number");
+        fail(f[i].column, kColumns[i], quoted(f[i].text, "is not a number"));
       case Parse::NotFinite:
-        fail(f[i].column, kColumns[i], "'" + std::string(f[i].text) + "' is not finite");
+        fail(f[i].column, kColumns[i], quoted(f[i].text, "is not finite"));
     }
   }
 
@@ -184,16 +195,30 @@ bool PoseLogReader::next(ToolSample& sample) {
   std::string_view b = f[8].text;
   std::uint64_t buttons = 0;
   const auto [end, ec] = std::from_chars(b.data(), b.data() + b.size(), buttons);
+  const auto bad_buttons = [&](std::string_view problem) {
+    fail(f[8].column, "buttons", quoted(b, problem));
+  };
   if (b.empty() || ec == std::errc::invalid_argument || end != b.data() + b.size()) {
     double d = 0.0;
-    if (!b.empty() && b.front() == '-')
-      fail(f[8].column, "buttons", "'" + std::string(b) + "' is negative, expected a bitmask >= 0");
-    if (parse_double(b, d) == Parse::Ok)
-      fail(f[8].column, "buttons", "'" + std::string(b) + "' is not an integer");
-    fail(f[8].column, "buttons", "'" + std::string(b) + "' is not a number");
+    if (!b.empty() && b.front() == '-') bad_buttons("is negative, expected a bitmask >= 0");
+    if (parse_double(b, d) == Parse::Ok) bad_buttons("is not an integer");
+    bad_buttons("is not a number");
   }
   if (ec == std::errc::result_out_of_range || buttons > std::numeric_limits<std::uint32_t>::max())
-    fail(f[8].column, "buttons", "'" + std::string(b) + "' does not fit in 32 bits");
+    bad_buttons("does not fit in 32 bits");
+
+  // frame: the simulation frame that took the sample, a non-negative integer, never decreasing.
+  if (has_frame_) {
+    const std::string_view text = f[12].text;
+    std::uint64_t frame = 0;
+    const auto [fend, fec] = std::from_chars(text.data(), text.data() + text.size(), frame);
+    if (text.empty() || fec != std::errc() || fend != text.data() + text.size())
+      fail(f[12].column, "frame", quoted(text, "is not a frame number (an integer >= 0)"));
+    if (any_sample_ && frame < frame_)
+      fail(f[12].column, "frame",
+           "frame must not decrease (previous sample in frame " + std::to_string(frame_) + ")");
+    frame_ = frame;
+  }
 
   sample.t = v[0];
   sample.position = Eigen::Vector3d(v[1], v[2], v[3]);
@@ -215,15 +240,20 @@ std::vector<ToolSample> read_pose_log(const std::string& path) {
 
 // ---- writer ---------------------------------------------------------------------------------------
 
-PoseLogWriter::PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force)
-    : file_(path, std::ios::binary | std::ios::trunc), out_(&file_), name_(path), with_force_(with_force) {
+PoseLogWriter::PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force,
+                             bool with_frame)
+    : file_(path, std::ios::binary | std::ios::trunc),
+      out_(&file_),
+      name_(path),
+      with_force_(with_force || with_frame),
+      with_frame_(with_frame) {
   if (!file_) throw InputError(path, 0, 0, "", "cannot open pose log for writing");
   write_preamble(metadata);
 }
 
 PoseLogWriter::PoseLogWriter(std::ostream& out, std::string name, const PoseLogMetadata& metadata,
-                             bool with_force)
-    : out_(&out), name_(std::move(name)), with_force_(with_force) {
+                             bool with_force, bool with_frame)
+    : out_(&out), name_(std::move(name)), with_force_(with_force || with_frame), with_frame_(with_frame) {
   write_preamble(metadata);
 }
 
@@ -236,17 +266,19 @@ void PoseLogWriter::write_preamble(const PoseLogMetadata& metadata) {
       throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
     *out_ << "# " << key << ": " << value << '\n';
   }
-  *out_ << kHeaderText << (with_force_ ? ",fx,fy,fz" : "") << '\n';
+  *out_ << kHeaderText << (with_force_ ? ",fx,fy,fz" : "") << (with_frame_ ? ",frame" : "") << '\n';
 }
 
-void PoseLogWriter::write(const ToolSample& s) {
+void PoseLogWriter::write(const ToolSample& s, std::uint64_t frame) {
   if (!is_valid(s, kPoseLogUnitTolerance))
     throw std::invalid_argument(name_ + ": sample at t = " + std::to_string(s.t) +
                                 " is not finite or its quaternion is not unit");
   if (count_ > 0 && !(s.t > last_t_))
     throw std::invalid_argument(name_ + ": sample time " + std::to_string(s.t) + " does not increase");
-  // 12 shortest doubles (at most 24 characters each), a 32-bit integer and separators.
-  std::array<char, 12 * 25 + 16> buffer;
+  if (with_frame_ && count_ > 0 && frame < last_frame_)
+    throw std::invalid_argument(name_ + ": frame " + std::to_string(frame) + " goes back");
+  // 12 shortest doubles (at most 24 characters each), two integers and separators.
+  std::array<char, 12 * 25 + 40> buffer;
   char* p = buffer.data();
   char* const end = buffer.data() + buffer.size();
   const double values[] = {s.t,
@@ -267,6 +299,11 @@ void PoseLogWriter::write(const ToolSample& s) {
       *p++ = ',';
       p = put(p, end, s.force[a]);
     }
+  if (with_frame_) {
+    *p++ = ',';
+    p = std::to_chars(p, end, frame).ptr;
+    last_frame_ = frame;
+  }
   *p++ = '\n';
   out_->write(buffer.data(), p - buffer.data());
   last_t_ = s.t;

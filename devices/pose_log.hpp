@@ -3,16 +3,18 @@
 //
 //   # scalpelsim-log 1                      magic line, always first
 //   # device: hid                           metadata, "# key: value"
-//   t,x,y,z,qw,qx,qy,qz,buttons[,fx,fy,fz]  header
+//   t,x,y,z,qw,qx,qy,qz,buttons[,fx,fy,fz[,frame]]  header
 //   0.001,0.01,0,0.005,1,0,0,0,0            one ToolSample per line
 //
 // t [s] strictly increasing; x, y, z [m]; (qw, qx, qy, qz) a unit quaternion tool -> world;
-// buttons a non-negative integer bitmask; fx, fy, fz [N] the force sent to the device. Numbers are
+// buttons a non-negative integer bitmask; fx, fy, fz [N] the force sent to the device; frame the
+// simulation frame that took the sample (a live session's recording), never decreasing. Numbers are
 // written in the shortest form that reads back to the same double, so record -> replay is exact.
 // Lines starting with '#' after the header are comments; empty lines are skipped.
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <fstream>
 #include <istream>
 #include <optional>
@@ -51,6 +53,9 @@ class PoseLogReader {
   [[nodiscard]] std::optional<std::string> metadata(std::string_view key) const;
   // True when the header has the force columns fx, fy, fz.
   [[nodiscard]] bool has_force() const { return has_force_; }
+  // True when it has the frame column; frame() is then the last sample's.
+  [[nodiscard]] bool has_frame() const { return has_frame_; }
+  [[nodiscard]] std::uint64_t frame() const { return frame_; }
   // 1-based number of the line read last (the last sample after next() returned true).
   [[nodiscard]] int line() const { return line_; }
 
@@ -64,6 +69,8 @@ class PoseLogReader {
   std::string name_;
   PoseLogMetadata metadata_;
   bool has_force_ = false;
+  bool has_frame_ = false;
+  std::uint64_t frame_ = 0;
   int line_ = 0;
   std::string line_text_;
   double last_t_ = 0.0;
@@ -75,15 +82,18 @@ class PoseLogReader {
 // and does not allocate.
 class PoseLogWriter {
  public:
-  // Creates (truncates) `path`; InputError if it cannot be opened.
-  PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force = false);
+  // Creates (truncates) `path`; InputError if it cannot be opened. `with_frame` adds the frame
+  // column after the force columns (and so implies them).
+  PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force = false,
+                bool with_frame = false);
   // Writes into `out`, which must outlive the writer; `name` names it in errors.
-  PoseLogWriter(std::ostream& out, std::string name, const PoseLogMetadata& metadata,
-                bool with_force = false);
+  PoseLogWriter(std::ostream& out, std::string name, const PoseLogMetadata& metadata, bool with_force = false,
+                bool with_frame = false);
 
   // Throws std::invalid_argument for a sample the reader would reject (non-finite values, t not
-  // strictly increasing, quaternion not unit), so a written log always reads back.
-  void write(const ToolSample& sample);
+  // strictly increasing, quaternion not unit, a frame going back), so a written log always reads
+  // back. `frame` is written only with the frame column.
+  void write(const ToolSample& sample, std::uint64_t frame = 0);
   // Throws std::runtime_error when the stream has failed.
   void flush();
 
@@ -96,8 +106,10 @@ class PoseLogWriter {
   std::ostream* out_;
   std::string name_;
   bool with_force_;
+  bool with_frame_ = false;
   std::size_t count_ = 0;
   double last_t_ = 0.0;
+  std::uint64_t last_frame_ = 0;
 };
 
 // Reads the whole log at `path`.

@@ -6,7 +6,8 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config clang-format
   libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libgmp-dev
-  libhidapi-dev libusb-1.0-0-dev libglfw3-dev libgl-dev libimgui-dev
+  libhidapi-dev libusb-1.0-0-dev libglfw3-dev libgl-dev libegl-dev libimgui-dev libstb-dev
+  libegl-mesa0 libgl1-mesa-dri xvfb xauth
   doctest-dev libbenchmark-dev
   gmsh tetgen python3-meshio
 )

@@ -350,7 +350,9 @@ int cmd_train(const TrainArgs& a) {
   std::cout << "  render frame p50 " << 1e3 * quantile(r.render_seconds, 0.5) << " ms, p99 "
             << 1e3 * quantile(r.render_seconds, 0.99) << " ms over " << r.render_seconds.size() << " frames\n"
             << "  simulation frame p50 " << 1e3 * quantile(session.frame_seconds(), 0.5) << " ms, p99 "
-            << 1e3 * quantile(session.frame_seconds(), 0.99) << " ms\n"
+            << 1e3 * quantile(session.frame_seconds(), 0.99) << " ms, max "
+            << 1e3 * quantile(session.frame_seconds(), 1.0) << " ms over " << session.frame_seconds().size()
+            << " frames\n"
             << "  haptic period p50 " << 1e6 * quantile(periods, 0.5) << " us, p99 "
             << 1e6 * quantile(periods, 0.99) << " us, max " << 1e6 * quantile(periods, 1.0) << " us\n";
   for (const auto& p : session.recordings()) std::cout << "  recorded " << p.string() << "\n";

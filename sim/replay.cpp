@@ -137,13 +137,21 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   const auto wall_start = std::chrono::steady_clock::now();
   std::vector<ToolSample> log = read_pose_log(log_path.string());
   if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
-  // A live session's recording is played sample by sample with its own times (docs/formats.md).
-  const std::optional<std::string> playback = PoseLogReader(log_path.string()).metadata("playback");
-  if (playback && *playback != "verbatim" && *playback != "interpolate")
-    throw InputError(log_path.string(), 0, 0, "playback",
-                     "'" + *playback + "' is not a playback: verbatim or interpolate");
-  const bool verbatim = playback && *playback == "verbatim";
-
+  // A live session's recording is played sample by sample, in the frames that took them
+  // (docs/formats.md).
+  std::vector<std::uint64_t> sample_frames;
+  bool verbatim = false;
+  {
+    PoseLogReader reader(log_path.string());
+    const std::optional<std::string> playback = reader.metadata("playback");
+    if (playback && *playback != "verbatim" && *playback != "interpolate")
+      throw InputError(log_path.string(), 0, 0, "playback",
+                       "'" + *playback + "' is not a playback: verbatim or interpolate");
+    verbatim = playback && *playback == "verbatim";
+    if (verbatim && !reader.has_frame())
+      throw InputError(log_path.string(), 0, 0, "playback", "verbatim playback needs the frame column");
+    for (ToolSample s; verbatim && reader.next(s);) sample_frames.push_back(reader.frame());
+  }
   Simulation sim(scenario);
   const MeshSummary initial = summarize(sim.mesh());
   const double surface_z = initial.box_max.z();
@@ -159,30 +167,25 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
 
   const double duration = log.back().t - log.front().t;
   const double visual_rate = scenario.simulation.visual_rate;
-  // Verbatim: the session's frames, up to the one of the last sample (its times are session times).
-  const auto frames = verbatim ? static_cast<std::size_t>(std::floor(log.back().t * visual_rate)) + 1
+  // Verbatim: the session's frames, up to the one that took the last sample.
+  const auto frames = verbatim ? static_cast<std::size_t>(sample_frames.back())
                                : static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
   std::size_t cycles = 0;
   std::vector<double> frame_seconds;
-  ToolSample sample, held;
-  bool has_held = false;
+  ToolSample sample;
+  std::size_t taken = 0;  // verbatim: samples taken by the simulation
   for (std::size_t k = 1; k <= frames; ++k) {
     const auto frame_start = std::chrono::steady_clock::now();
     const double end = static_cast<double>(k) / visual_rate;
     if (verbatim) {
-      // The samples with t < end, as the live session cut its frames (sim/session.hpp).
-      while (true) {
-        if (!has_held) {
-          if (!queue.pop(held)) {
-            if (cycles >= log.size()) break;
-            cycles += loop.run_cycles(1);
-            continue;
-          }
-          has_held = true;
+      // The samples frame k of the live session took (sim/session.hpp), one haptic cycle each.
+      while (taken < log.size() && sample_frames[taken] <= k) {
+        if (!queue.pop(sample)) {
+          cycles += loop.run_cycles(1);
+          continue;
         }
-        if (held.t >= end) break;
-        sim.on_sample(held);
-        has_held = false;
+        sim.on_sample(sample);
+        ++taken;
       }
     } else {
       // Haptic cycles up to the end of frame k: t < k / visual_rate.

@@ -95,13 +95,13 @@ void Session::begin_attempt() {
   const std::filesystem::path path = attempt_path(options_.record, recordings_.size() + 1);
   char rate[32];
   std::snprintf(rate, sizeof rate, "%g Hz", scenario_.device.rate);
-  // verbatim: replayed sample by sample, with the times the simulation saw (docs/formats.md).
+  // verbatim: replayed sample by sample, in the frames that took them (docs/formats.md).
   writer_ = std::make_unique<PoseLogWriter>(path.string(),
                                             PoseLogMetadata{{"device", options_.device_name},
                                                             {"scenario", scenario_.name},
                                                             {"rate", rate},
                                                             {"playback", "verbatim"}},
-                                            true);
+                                            true, true);
   recordings_.push_back(path);
 }
 
@@ -128,8 +128,8 @@ void Session::publish_frame(double frame_seconds) {
   s.hand_force = sim_->samples() > 0 ? sim_->last_sample().force.norm() : 0.0;
   s.paused = paused();
   // Ended for the trainee when the simulation has also taken every pose the device sent.
-  s.playback_ended = playback_ && playback_->position() >= playback_->duration() &&
-                     hs.samples_pushed == popped_ && !holding_;
+  s.playback_ended =
+      playback_ && playback_->position() >= playback_->duration() && hs.samples_pushed == popped_;
   s.has_task = scenario_.task.has_value();
   if (s.has_task) s.task = score_task(*scenario_.task, sim_->cutter().cut_points(), surface_z_);
   s.recorded = writer_ ? writer_->samples_written() : 0;
@@ -155,18 +155,14 @@ void Session::sim_main() noexcept {
 
 void Session::run_frames() {
   const double visual_rate = scenario_.simulation.visual_rate;
-  const double frame = 1.0 / visual_rate;
-  const double half_period = 0.5 / scenario_.device.rate;
-  // Without a sample past a frame's end this long after its deadline (the device is silent: frozen,
-  // unplugged, at the end of a playback), the frame ends anyway, so the tissue keeps real time.
-  const auto grace = std::chrono::duration<double>(5.0 / scenario_.device.rate);
+  const double period = 1.0 / scenario_.device.rate;
   const auto frame_duration =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(frame));
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / visual_rate));
 
-  std::size_t k = 0;      // frames of this attempt
+  std::uint64_t k = 0;    // frames of this attempt
   double origin = 0.0;    // loop time of session time 0
-  bool anchored = false;  // origin set: it is set from the first sample, and again after a pause
-  ToolSample held;        // the first sample past the current frame, while holding_
+  double last_t = 0.0;    // session time of the last sample taken
+  bool anchored = false;  // origin set: from the first sample, and again after a pause
   std::size_t since_flush = 0;
   auto deadline = Clock::now() + frame_duration;
 
@@ -186,7 +182,8 @@ void Session::run_frames() {
       frame_seconds_.clear();
       begin_attempt();
       k = 0;
-      anchored = holding_ = false;
+      last_t = 0.0;
+      anchored = false;
       publish_frame(0.0);
       deadline = Clock::now() + frame_duration;
       continue;
@@ -195,7 +192,7 @@ void Session::run_frames() {
       // Nothing moves; what the device sends meanwhile is not part of the attempt.
       ToolSample drop;
       while (queue_.pop(drop)) ++popped_;
-      anchored = holding_ = false;
+      anchored = false;
       publish_frame(0.0);
       std::this_thread::sleep_for(frame_duration);
       deadline = Clock::now() + frame_duration;
@@ -203,42 +200,34 @@ void Session::run_frames() {
     }
 
     std::this_thread::sleep_until(deadline);
-    const double end = static_cast<double>(k + 1) / visual_rate;
-    // The frame's samples: every one with t < end, in order; the first one past it waits.
-    const auto give_up = Clock::now() + grace;
-    while (true) {
-      if (!holding_) {
-        if (!queue_.pop(held)) {
-          if (Clock::now() > give_up) break;
-          std::this_thread::sleep_for(std::chrono::microseconds(200));
-          continue;
-        }
-        ++popped_;
-        holding_ = true;
-        if (!anchored) {
-          // Session time continues where the attempt stood, half a haptic period into the frame.
-          origin = held.t - static_cast<double>(k) * frame - half_period;
-          anchored = true;
-        }
-        held.t -= origin;
+    ++k;
+    // The frame takes every sample the loop has sent: the blade is where the hand is, even when
+    // frames take longer than 1 / visual_rate. The tissue steps once a frame, so it then runs
+    // slower than real time instead of taking steps it cannot afford.
+    ToolSample s;
+    while (queue_.pop(s)) {
+      ++popped_;
+      if (!anchored) {
+        // Session time goes on from the last sample, one haptic period later.
+        origin = s.t - (last_t + period);
+        anchored = true;
       }
-      if (held.t >= end) break;
-      if (writer_) writer_->write(held);
-      sim_->on_sample(held);
-      holding_ = false;
+      s.t -= origin;
+      last_t = s.t;
+      if (writer_) writer_->write(s, k);
+      sim_->on_sample(s);
     }
     const auto start = Clock::now();
-    sim_->end_frame(end, forces_);
-    ++k;
+    sim_->end_frame(static_cast<double>(k) / visual_rate, forces_);
     frame_seconds_.push_back(std::chrono::duration<double>(Clock::now() - start).count());
     publish_frame(frame_seconds_.back());
-    if (writer_ && ++since_flush * frame >= 0.1) {  // a killed session keeps all but 0.1 s
-      writer_->flush();
+    if (writer_ && ++since_flush * frame_duration >= std::chrono::milliseconds(100)) {
+      writer_->flush();  // a killed session keeps all but the last 0.1 s
       since_flush = 0;
     }
     deadline += frame_duration;
     const auto now = Clock::now();
-    if (now > deadline + frame_duration) deadline = now;  // behind: do not try to catch up
+    if (now > deadline) deadline = now;  // behind: the next frame starts at once, none is skipped
   }
 }
 

@@ -3,10 +3,11 @@
 // simulation frame a snapshot of the tissue and the session's figures published for a renderer
 // through a triple buffer. None of the three threads waits on another.
 //
-// Frames are cut by sample time, as a headless replay cuts them: frame k takes the samples with
-// t < k / visual_rate (session time, from the start or the last reset), so the recording of a
-// session replays headless to the same mesh, bit for bit (`scalpelsim replay`, which plays a log
-// with `playback: verbatim` sample by sample).
+// Frame k takes every sample the loop has sent by its start, and ends at tissue time
+// k / visual_rate: the blade follows the hand at once, and when frames take longer than the visual
+// period the tissue runs slower than real time rather than skipping steps. The recording notes the
+// frame of every sample, so it replays headless to the same mesh, bit for bit (`scalpelsim replay`
+// plays a log with `playback: verbatim` sample by sample, by those frames).
 #pragma once
 
 #include <atomic>
@@ -34,7 +35,7 @@ class Simulation;
 
 // The figures of a session after one simulation frame, for the trainee's overlay.
 struct SessionStatus {
-  double time = 0.0;                // [s] session time of the frame
+  double time = 0.0;                // [s] tissue time at the end of the frame
   double frame_seconds = 0.0;       // [s] the simulation's compute time for the frame
   double frame_seconds_p99 = 0.0;   // [s] over the last 256 frames
   double haptic_rate = 0.0;         // [Hz] measured since the session started
@@ -78,6 +79,8 @@ class Session {
   // Render thread: takes the newest frame; true when it is newer than the last one taken.
   bool update() { return frames_.update(); }
   [[nodiscard]] const SessionFrame& frame() const { return frames_.read(); }
+
+  [[nodiscard]] double visual_rate() const { return scenario_.simulation.visual_rate; }  // [Hz]
 
   // Any thread.
   void request_reset() { reset_requests_.fetch_add(1, std::memory_order_release); }
@@ -127,7 +130,6 @@ class Session {
   double surface_z_ = 0.0;
   std::uint64_t last_not_ok_ = 0;
   std::uint64_t popped_ = 0;  // samples taken from the queue
-  bool holding_ = false;      // one of them waits for the next frame
 };
 
 }  // namespace scalpel

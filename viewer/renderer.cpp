@@ -219,7 +219,7 @@ void Renderer::build_overlays(const FrameSnapshot& s, const RenderOptions& o) {
     if (o.handle) prism(s.blade_back + back * kHandleLength, s.blade_back, kHandleRadius, Palette::kHandle);
   }
   if (o.wireframe) {
-    const std::array<float, 4> colour{0.08f, 0.08f, 0.10f, 0.55f};
+    const std::array<float, 4> colour{0.08f, 0.08f, 0.10f, 0.35f};
     for (const auto& p : s.edges) lines_.push_back({p, colour});
   }
 }

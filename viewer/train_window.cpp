@@ -25,6 +25,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+constexpr float kPanelWidth = 330.0f;  // [px] the overlay's width
+
 // What the GLFW callbacks change, reached through the window's user pointer.
 struct InputState {
   double scroll = 0.0;  // [notches] the pointer's depth wheel, accumulated
@@ -154,6 +156,9 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
   glfwGetFramebufferSize(window, &fw, &fh);
   session.update();
   Camera camera = replay_views(session.frame().snapshot, static_cast<double>(fw) / std::max(fh, 1))[1].camera;
+  // The overlay covers the left of the window: the scene's centre goes to the middle of the rest.
+  camera.pan(-0.5 * kPanelWidth / std::max(fh, 1), 0.0);
+  camera.zoom(1.1);
   const Camera home_camera = camera;
 
   TrainWindowResult result;
@@ -162,6 +167,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
   double last_x = 0, last_y = 0;
   glfwGetCursorPos(window, &last_x, &last_y);
   const auto opened = Clock::now();
+  const double frame_period = 1.0 / session.visual_rate();
   session.start();
 
   while (!glfwWindowShouldClose(window)) {
@@ -241,7 +247,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
-    ImGui::SetNextWindowSize(ImVec2(330, 0), ImGuiCond_FirstUseEver);
+    ImGui::SetNextWindowSize(ImVec2(kPanelWidth, 0), ImGuiCond_FirstUseEver);
     ImGui::Begin("Session");
     ImGui::Text("%s   t = %.1f s%s", o.title.c_str(), st.time, st.paused ? "   PAUSED" : "");
     if (!st.device_ok)
@@ -329,6 +335,10 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     }
     glfwSwapBuffers(window);
     result.render_seconds.push_back(std::chrono::duration<double>(Clock::now() - frame_start).count());
+    // At most one picture per visual frame: a display without vertical sync (a virtual one) would
+    // otherwise draw flat out and take the processor the simulation needs. Input ends the wait.
+    const double rest = frame_period - std::chrono::duration<double>(Clock::now() - frame_start).count();
+    if (rest > 0) glfwWaitEventsTimeout(rest);
     if (closing || session.failed() || (o.stop && o.stop->load()))
       glfwSetWindowShouldClose(window, GLFW_TRUE);
   }

@@ -70,6 +70,7 @@ InputError read_error(const std::string& text) {
 }
 
 const std::string kHead = "# scalpelsim-log 1\n# device: mock\nt,x,y,z,qw,qx,qy,qz,buttons\n";
+const std::string kFrameHead = "# scalpelsim-log 1\nt,x,y,z,qw,qx,qy,qz,buttons,fx,fy,fz,frame\n";
 
 std::filesystem::path temp_dir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("scalpelsim_test_" + name);
@@ -106,6 +107,32 @@ TEST_CASE("pose log: write then read gives bit-identical samples") {
     }
     CHECK(n == samples.size());
   }
+}
+
+TEST_CASE("pose log: a live recording's frame column round-trips and implies the force columns") {
+  const auto samples = tricky_samples(true);
+  std::ostringstream out;
+  PoseLogWriter w(out, "mem", {{"playback", "verbatim"}}, false, true);
+  for (std::size_t i = 0; i < samples.size(); ++i) w.write(samples[i], i / 7);
+  w.flush();
+  CHECK_THROWS_AS(w.write(
+                      [&] {
+                        ToolSample s = samples.back();
+                        s.t += 1.0;
+                        return s;
+                      }(),
+                      0),
+                  std::invalid_argument);  // a frame going back
+  std::istringstream in(out.str());
+  PoseLogReader r(in, "mem");
+  CHECK(r.has_force());
+  CHECK(r.has_frame());
+  std::size_t i = 0;
+  for (ToolSample s; r.next(s); ++i) {
+    check_identical(s, samples[i]);
+    CHECK(r.frame() == i / 7);
+  }
+  CHECK(i == samples.size());
 }
 
 TEST_CASE("pose log: file round trip through read_pose_log") {
@@ -185,6 +212,12 @@ TEST_CASE("pose log: every violation names the line and the field") {
       {"buttons beyond 32 bits", kHead + "0.001,0,0,0,1,0,0,0,4294967296\n", 4, "buttons", "32 bits"},
       {"bad force", "# scalpelsim-log 1\nt,x,y,z,qw,qx,qy,qz,buttons,fx,fy,fz\n0.1,0,0,0,1,0,0,0,0,1,x,2\n",
        3, "fy", "not a number"},
+      {"frame without force", "# scalpelsim-log 1\nt,x,y,z,qw,qx,qy,qz,buttons,frame\n", 2, "fx",
+       "bad header"},
+      {"bad frame", kFrameHead + "0.1,0,0,0,1,0,0,0,0,0,0,0,x\n", 3, "frame", "not a frame number"},
+      {"negative frame", kFrameHead + "0.1,0,0,0,1,0,0,0,0,0,0,0,-1\n", 3, "frame", "not a frame number"},
+      {"frame going back", kFrameHead + "0.1,0,0,0,1,0,0,0,0,0,0,0,2\n0.2,0,0,0,1,0,0,0,0,0,0,0,1\n", 4,
+       "frame", "must not decrease"},
   };
   for (const auto& c : cases) {
     CAPTURE(c.what);

@@ -5,7 +5,9 @@
 #include <chrono>
 #include <filesystem>
 #include <thread>
+#include <tuple>
 
+#include "cutting/input_error.hpp"
 #include "devices/playback_device.hpp"
 #include "devices/pose_log.hpp"
 #include "sim/replay.hpp"
@@ -131,4 +133,33 @@ TEST_CASE("a paused session stands still, and a reset starts a new attempt with 
   REQUIRE(files.size() == 2);
   CHECK(files[1] == dir / "attempt.2.csv");
   for (const fs::path& f : files) CHECK(!read_pose_log(f.string()).empty());  // both complete and valid
+}
+
+TEST_CASE("a verbatim log without the frame column, or with an unknown playback, is refused by name") {
+  const Scenario scenario = bundled();
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_bad";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const auto write = [&](const std::string& name, const std::string& playback) {
+    PoseLogWriter w((dir / name).string(), {{"playback", playback}}, true);
+    ToolSample s;
+    s.t = 0.001;
+    w.write(s);
+    w.flush();
+    return dir / name;
+  };
+  ReplayOptions ro;
+  ro.out_dir = dir / "out";
+  for (const auto& [name, playback, problem] : {std::tuple{"no_frames.csv", "verbatim", "frame column"},
+                                                std::tuple{"unknown.csv", "sometimes", "sometimes"}}) {
+    CAPTURE(name);
+    try {
+      (void)replay(scenario, write(name, playback), ro);
+      FAIL("no error");
+    } catch (const InputError& e) {
+      CHECK(e.field() == "playback");
+      CHECK(std::string(e.what()).find(name) != std::string::npos);
+      CHECK(std::string(e.what()).find(problem) != std::string::npos);
+    }
+  }
 }
