@@ -134,6 +134,7 @@ void Session::publish_frame(double frame_seconds) {
   if (s.has_task) s.task = score_task(*scenario_.task, sim_->cutter().cut_points(), surface_z_);
   s.recorded = writer_ ? writer_->samples_written() : 0;
   frames_.publish();
+  if (on_publish_) on_publish_();
 }
 
 void Session::sim_main() noexcept {

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -81,6 +82,9 @@ class Session {
   [[nodiscard]] const SessionFrame& frame() const { return frames_.read(); }
 
   [[nodiscard]] double visual_rate() const { return scenario_.simulation.visual_rate; }  // [Hz]
+  // Called on the simulation thread after each published frame (a renderer's wake-up); set it
+  // before start() or after stop().
+  void set_on_publish(std::function<void()> f) { on_publish_ = std::move(f); }
 
   // Any thread.
   void request_reset() { reset_requests_.fetch_add(1, std::memory_order_release); }
@@ -130,6 +134,7 @@ class Session {
   double surface_z_ = 0.0;
   std::uint64_t last_not_ok_ = 0;
   std::uint64_t popped_ = 0;  // samples taken from the queue
+  std::function<void()> on_publish_;
 };
 
 }  // namespace scalpel

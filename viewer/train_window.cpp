@@ -13,7 +13,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <string>
+#include <thread>
 
 #include "viewer/camera.hpp"
 #include "viewer/pictures.hpp"
@@ -32,10 +34,31 @@ struct InputState {
   double scroll = 0.0;  // [notches] the pointer's depth wheel, accumulated
   double zoom = 0.0;    // [notches] camera zoom, this frame
   bool pointer_mode = false;
+  std::uint64_t events = 0;  // input events so far: a new one asks for a new picture
 };
 
+InputState& state_of(GLFWwindow* window) {
+  return *static_cast<InputState*>(glfwGetWindowUserPointer(window));
+}
+void on_cursor(GLFWwindow* w, double, double) {
+  ++state_of(w).events;
+}
+void on_button(GLFWwindow* w, int, int, int) {
+  ++state_of(w).events;
+}
+void on_key(GLFWwindow* w, int, int, int, int) {
+  ++state_of(w).events;
+}
+void on_resize(GLFWwindow* w, int, int) {
+  ++state_of(w).events;
+}
+void on_focus(GLFWwindow* w, int) {
+  ++state_of(w).events;
+}
+
 void on_scroll(GLFWwindow* window, double, double dy) {
-  auto* s = static_cast<InputState*>(glfwGetWindowUserPointer(window));
+  auto* s = &state_of(window);
+  ++s->events;
   if (ImGui::GetCurrentContext() && ImGui::GetIO().WantCaptureMouse) return;
   const bool ctrl = glfwGetKey(window, GLFW_KEY_LEFT_CONTROL) == GLFW_PRESS ||
                     glfwGetKey(window, GLFW_KEY_RIGHT_CONTROL) == GLFW_PRESS;
@@ -90,7 +113,13 @@ class WindowSystem {
     glfwMakeContextCurrent(window);
     glfwSwapInterval(1);
     glfwSetWindowUserPointer(window, &input);
-    glfwSetScrollCallback(window, on_scroll);  // before ImGui, which chains to it
+    // Before ImGui, which chains to them.
+    glfwSetScrollCallback(window, on_scroll);
+    glfwSetCursorPosCallback(window, on_cursor);
+    glfwSetMouseButtonCallback(window, on_button);
+    glfwSetKeyCallback(window, on_key);
+    glfwSetFramebufferSizeCallback(window, on_resize);
+    glfwSetWindowFocusCallback(window, on_focus);
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();
     ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the user's folder
@@ -168,11 +197,25 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
   glfwGetCursorPos(window, &last_x, &last_y);
   const auto opened = Clock::now();
   const double frame_period = 1.0 / session.visual_rate();
+  // A published frame wakes the window thread (glfwPostEmptyEvent may be called from any thread).
+  session.set_on_publish([] { glfwPostEmptyEvent(); });
   session.start();
+  std::uint64_t seen_events = 0;
+  bool first = true;
 
   while (!glfwWindowShouldClose(window)) {
+    // A picture when there is something new to show: a frame of the session, or input. Otherwise
+    // the thread sleeps, and the processor is the simulation's.
+    glfwWaitEventsTimeout(0.1);
+    const bool fresh = session.update();
+    const bool closing =
+        o.close_after > 0 && std::chrono::duration<double>(Clock::now() - opened).count() >= o.close_after;
+    if (closing || session.failed() || (o.stop && o.stop->load()))
+      glfwSetWindowShouldClose(window, GLFW_TRUE);
+    if (!fresh && input.events == seen_events && !first && !closing) continue;
+    seen_events = input.events;
+    first = false;
     const auto frame_start = Clock::now();
-    glfwPollEvents();
     const ImGuiIO& io = ImGui::GetIO();
     glfwGetFramebufferSize(window, &fw, &fh);
     int ww = 0, wh = 0;
@@ -238,7 +281,6 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       pointer->publish(in);
     }
 
-    session.update();
     const SessionFrame& f = session.frame();
     const SessionStatus& st = f.status;
     renderer.draw(f.snapshot, camera, render_options, fw, fh);
@@ -320,28 +362,29 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
     // At the end of a playback: the device has run out and the simulation has taken its last pose.
-    const bool ended = o.close_at_end && playback && st.playback_ended && !st.device_ok;
-    const bool closing =
-        ended ||
-        (o.close_after > 0 && std::chrono::duration<double>(Clock::now() - opened).count() >= o.close_after);
-    if (screenshot || (closing && !o.final_screenshot.empty())) {
+    const bool ended = o.close_at_end && playback && st.playback_ended;
+    if (ended) glfwSetWindowShouldClose(window, GLFW_TRUE);
+    const bool last = closing || ended;
+    if (screenshot || (last && !o.final_screenshot.empty())) {
       char name[64];
       std::snprintf(name, sizeof name, "scalpelsim-%06zu.png", static_cast<std::size_t>(f.snapshot.frame));
       const std::filesystem::path path =
-          closing && !o.final_screenshot.empty() ? o.final_screenshot : o.screenshot_dir / name;
-      write_png(read_back_buffer(fw, fh), path);
-      result.screenshots.push_back(path);
+          last && !o.final_screenshot.empty() ? o.final_screenshot : o.screenshot_dir / name;
+      try {
+        write_png(read_back_buffer(fw, fh), path);
+        result.screenshots.push_back(path);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "warning: %s\n", e.what());  // a lost screenshot must not end the session
+      }
       screenshot = false;
     }
     glfwSwapBuffers(window);
     result.render_seconds.push_back(std::chrono::duration<double>(Clock::now() - frame_start).count());
-    // At most one picture per visual frame: a display without vertical sync (a virtual one) would
-    // otherwise draw flat out and take the processor the simulation needs. Input ends the wait.
+    // At most one picture per visual frame, also on a display without vertical sync (a virtual one).
     const double rest = frame_period - std::chrono::duration<double>(Clock::now() - frame_start).count();
-    if (rest > 0) glfwWaitEventsTimeout(rest);
-    if (closing || session.failed() || (o.stop && o.stop->load()))
-      glfwSetWindowShouldClose(window, GLFW_TRUE);
+    if (rest > 0) std::this_thread::sleep_for(std::chrono::duration<double>(rest));
   }
+  session.set_on_publish({});
   session.stop();
   return result;
 }
