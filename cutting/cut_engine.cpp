@@ -25,6 +25,7 @@ struct CutEngine::CutNode {
   bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
   int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
   Vec3 sheet_normal = Vec3::Zero();  // normal of the swept surface where it was cut (last sample)
+  std::uint64_t stroke = 0;          // the stroke that cut it (last sample)
   // Shared with units promoted within a stroke (§6): it stays where it is and gains no copy.
   bool pinned = false;
   std::vector<NodeId> copies;  // real nodes, one per group (group_of says which)
@@ -255,6 +256,7 @@ void CutEngine::place(const BladePose& pose) {
   blade_ = pose;
   placed_ = true;
   stroke_start_ = step_count_ + 1;
+  in_contact_ = false;  // the next contact is a new stroke
 }
 
 std::uint32_t CutEngine::coarse_of(TetId live) const {
@@ -854,6 +856,12 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   }
   const BladePose prev = blade_;
   sweep_->sweep(prev, pose, sweep_result_);
+  if (sweep_result_.tets.empty()) {
+    in_contact_ = false;
+  } else if (!in_contact_) {
+    in_contact_ = true;
+    ++stroke_;
+  }
   // Recursive continuation (§6): where the sweep reaches a component the basic machine cannot
   // continue, its sub-tetrahedra become units and collision runs again on them. Each pass goes one
   // level deeper in the components it promotes; the depth bound ends the loop.
@@ -987,6 +995,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     n.bary = w;
     const Vec3 normal = swept_normal(prev, pose, c.s);
     if (normal.squaredNorm() > 0) n.sheet_normal = normal;
+    n.stroke = stroke_;
     n.sample_sum += sample;
     ++n.samples;
     positioned_faces.insert(k);
@@ -1170,6 +1179,7 @@ std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, cons
   n.bary = bary;
   n.copies.push_back(add_node(key_parents(mesh_, key, bary)));
   n.placed_bary = bary;  // the copy is interpolated at `bary` by add_node
+  n.stroke = stroke_;
   cut_nodes_.push_back(std::move(n));
   return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
 }
@@ -1289,13 +1299,25 @@ std::vector<CutEngine::CrackFace> CutEngine::crack_faces(const std::vector<std::
   return out;
 }
 
-bool CutEngine::same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
-                         double size) const {
+bool CutEngine::near_surface(const Vec3& old_point, const Vec3& old_normal, const Vec3& point,
+                             const Vec3& normal, double size, double angle_deg, double distance) const {
   const double on = old_normal.norm(), nn = normal.norm();
-  if (on == 0.0 || nn == 0.0) return (point - old_point).norm() <= options_.same_cut_distance * size;
+  if (on == 0.0 || nn == 0.0) return (point - old_point).norm() <= distance * size;
   const double cos_angle = std::abs(old_normal.dot(normal)) / (on * nn);
-  return cos_angle >= std::cos(options_.same_cut_angle_deg * std::numbers::pi / 180.0) &&
-         std::abs(old_normal.dot(point - old_point)) / on <= options_.same_cut_distance * size;
+  return cos_angle >= std::cos(angle_deg * std::numbers::pi / 180.0) &&
+         std::abs(old_normal.dot(point - old_point)) / on <= distance * size;
+}
+
+bool CutEngine::same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
+                         double size, std::uint64_t stroke) const {
+  // An earlier stroke's cut is crossed, not continued, unless the blade follows it closely (a
+  // re-cut along the same path): the wide tolerances, meant for the blade's own tremble, would
+  // take a second incision for the first near the line where the two meet.
+  if (stroke != stroke_)
+    return near_surface(old_point, old_normal, point, normal, size, options_.earlier_cut_angle_deg,
+                        options_.earlier_cut_distance);
+  return near_surface(old_point, old_normal, point, normal, size, options_.same_cut_angle_deg,
+                      options_.same_cut_distance);
 }
 
 // The swept surface's normal at a face: its mid node's last sample, else one of its cut edges'.
@@ -1324,7 +1346,8 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   auto extends = [&](const CoarseTet& c, const Vec3& point, const Vec3& normal, double size) {
     return c.any_cut_node([&](std::uint32_t id) {
       const CutNode& n = cut_nodes_[id];
-      return n.kind != CutNode::Kind::Entry && same_cut(point_of(n), n.sheet_normal, point, normal, size);
+      return n.kind != CutNode::Kind::Entry &&
+             same_cut(point_of(n), n.sheet_normal, point, normal, size, n.stroke);
     });
   };
   // Every cut unit around `key`; or, for a new cut there, those whose subdivision is final and that
@@ -1352,7 +1375,7 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
       return;
     }
     const CutNode& m = cut_nodes_[mid];
-    if (same_cut(point_of(m), face_sheet_normal(k), point, normal, face_size(k))) return;
+    if (same_cut(point_of(m), face_sheet_normal(k), point, normal, face_size(k), m.stroke)) return;
     add_units(k, !m.opened);  // an opened face cannot take a second surface at any level
   };
 
@@ -1368,7 +1391,7 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
     const CutNode& n = cut_nodes_[id];
     if (n.registered) continue;  // Fig. 9: the crossing takes the registered node's place
     if (!same_cut(point_of(n), n.sheet_normal, e.point, swept_normal(prev, pose, e.s),
-                  (x[e.a] - x[e.b]).norm()))
+                  (x[e.a] - x[e.b]).norm(), n.stroke))
       add_units(k, false);
   }
   for (const FacePierce& p : sweep_result_.pierces) {
@@ -1587,9 +1610,15 @@ bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const 
   if (ma.squaredNorm() == 0 || mb.squaredNorm() == 0) return false;  // surface unknown
   const auto& x = coarse_.positions();
   const double size = (x[e.a] - x[e.b]).norm();
-  if (!same_cut(x[e.a], ma, x[e.b], mb, size) || !same_cut(x[e.b], mb, x[e.a], ma, size)) return false;
+  const double angle = options_.same_cut_angle_deg, distance = options_.same_cut_distance;
+  if (!near_surface(x[e.a], ma, x[e.b], mb, size, angle, distance) ||
+      !near_surface(x[e.b], mb, x[e.a], ma, size, angle, distance))
+    return false;
+  // Along the surface, not across it at a small angle (CutOptions::along_cut_angle_deg).
   const Vec3 normal = swept_normal(prev, pose, e.s);
-  return same_cut(x[e.a], ma, e.point, normal, size) || same_cut(x[e.b], mb, e.point, normal, size);
+  const double along = options_.along_cut_angle_deg;
+  return near_surface(x[e.a], ma, e.point, normal, size, along, distance) ||
+         near_surface(x[e.b], mb, e.point, normal, size, along, distance);
 }
 
 bool CutEngine::sealed(const Key3& key) const {

@@ -76,6 +76,16 @@ struct CutOptions {
   // surface's tangent plane. Below that the mesh cannot resolve two surfaces anyway.
   double same_cut_angle_deg = 30.0;
   double same_cut_distance = 0.5;
+  // The same for a cut node an earlier stroke made (a stroke: one contact of the blade with the
+  // tissue, from the first step whose sweep touches it to the first that touches nothing, or
+  // place()). A second incision crossing the first at a small angle lies within the tolerances
+  // above near the line where they meet, and would be taken there for the first one continued:
+  // the pieces between them stayed joined. Tremble and reversals (§5) are the stroke's own.
+  double earlier_cut_angle_deg = 2.0;
+  double earlier_cut_distance = 0.02;
+  // along_former_cut(): a crossing runs along an opened surface of a promoted cut only where the
+  // blade's swept surface is within this angle of it (and within same_cut_distance).
+  double along_cut_angle_deg = 10.0;
   // A cut tetrahedron is left behind, and a stroke reaching it again continues it recursively, once
   // the blade has not touched it for this many steps, or since place(). Within that time a tremor or
   // a pull-back that leaves and re-enters the cut is the basic machine's (§5) (1 kHz tool samples: a
@@ -277,8 +287,14 @@ class CutEngine {
   // promoted cut nodes of one surface (by same_cut()): a blade retracing a cut continued one level
   // deeper, which must not cut beside it.
   bool along_former_cut(const EdgeCut& e, const BladePose& prev, const BladePose& pose) const;
+  // Whether a crossing at `point` with swept-surface normal `normal` lies on the surface a cut node
+  // of stroke `stroke` was cut with (at `old_point`, `old_normal`): within same_cut_angle_deg and
+  // same_cut_distance for the current stroke, earlier_cut_angle_deg and earlier_cut_distance for an
+  // earlier one.
   bool same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
-                double size) const;
+                double size, std::uint64_t stroke) const;
+  bool near_surface(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
+                    double size, double angle_deg, double distance) const;
   Vec3 face_sheet_normal(const std::array<std::uint32_t, 3>& key) const;
 
   TetMesh& mesh_;
@@ -303,6 +319,8 @@ class CutEngine {
   std::vector<std::uint32_t> unit_live_;
   std::vector<std::uint64_t> last_touch_;  // by unit slot: the last step whose sweep touched it
   std::uint64_t step_count_ = 0, stroke_start_ = 0;
+  std::uint64_t stroke_ = 0;  // the current stroke (see CutOptions::earlier_cut_angle_deg)
+  bool in_contact_ = false;   // the last sweep touched the tissue: the stroke goes on
   std::vector<std::uint8_t> level_;
   std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction
   // Crack faces of promoted components (one side's real nodes), for the cut-surface area.

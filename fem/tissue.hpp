@@ -3,7 +3,8 @@
 // Time integration: implicit Euler with one linearisation per step (Baraff & Witkin 1998; Müller &
 // Gross 2004, section 5), lumped mass M, Rayleigh damping C = alpha M + beta K per region:
 //   (M + dt C + dt^2 K) v1 = M v0 + dt (f(x0) + M g + f_ext),   x1 = x0 + dt v1,
-// solved by conjugate gradients, stopped at ||b - A v|| <= tolerance ||b|| or at the iteration cap.
+// solved by conjugate gradients, stopped at ||b - A v|| <= tolerance ||b|| or at the iteration cap
+// (a step stopped there is not applied but redone in halves: TissueSettings::max_halvings).
 // K is the consistent tangent of the element forces (fem/element.hpp), with the twist modes of the
 // stress: prestressed skin at 60 Hz then settles within a few steps (0.08 s in the bundled
 // scenario; tests/sim/test_wound.cpp), and one linearisation a step is enough. With R held fixed
@@ -87,8 +88,11 @@ enum class Preconditioner {
 
 struct TissueSettings {
   TissueKind kind = TissueKind::Corotational;
-  double tolerance = 1e-3;               // CG stop: relative residual ||r|| / ||b|| [-]
-  int max_iterations = 200;              // CG iteration cap
+  double tolerance = 1e-3;   // CG stop: relative residual ||r|| / ||b|| [-]
+  int max_iterations = 200;  // CG iteration cap
+  // A step whose solve stops at the cap is redone as two steps of dt/2, at most this many halvings
+  // deep; one that still stops there is held (fem/tissue.cpp, TissueModel::advance).
+  int max_halvings = 3;
   Vec3 gravity = Vec3(0.0, 0.0, -9.81);  // [m/s^2]
   double sliver_quality = 0.05;          // q_min of the sliver remedy (element.hpp) [-]
   double support_quality = 5e-4;         // a free node with no element this good is a passenger [-]
@@ -128,7 +132,8 @@ struct TissueSettings {
 
 enum class StepStatus {
   Converged,     // relative residual reached the tolerance
-  IterationCap,  // state advanced with the last CG iterate; residual says how good it is
+  IterationCap,  // a solve stopped at the cap even max_halvings halvings down: that part of the
+                 // step was not applied (positions kept, velocities zeroed); message says where
   NonFinite,     // NaN or inf met: nothing was written, the last good state is kept
 };
 
@@ -145,7 +150,8 @@ struct StepStats {
   std::size_t local_nodes = 0;        // nodes of the local solve after a topology change (0: none)
   int local_iterations = 0;           // its CG iterations (not counted in cg_iterations)
   std::size_t aggregates_split = 0;   // coarse aggregates added by splitting those the cut severed
-  std::string message;                // why, when status == NonFinite
+  int substeps = 1;                   // steps applied: more than 1 after a solve stopped at the cap
+  std::string message;                // why, when status != Converged
 };
 
 class TissueModel {
@@ -155,6 +161,7 @@ class TissueModel {
   TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueSettings settings = {});
 
   // Advances positions and velocities of the mesh by dt [s].
+  // A solve that stops at the iteration cap is not applied (see TissueSettings::max_halvings).
   StepStats step(double dt);
   [[nodiscard]] const StepStats& last_step() const { return last_; }
 
@@ -201,6 +208,10 @@ class TissueModel {
   // Forces, stiffness data and energy of every element; returns how many are beyond the strain limit.
   std::size_t evaluate_elements(double& energy);
   void assemble(double dt);
+  // step() at halving depth `depth`, and one linearised solve, applied if it converged or, when
+  // `last`, held if it did not (a non-converged solve otherwise writes nothing).
+  StepStats advance(double dt, int depth);
+  StepStats solve_step(double dt, bool last);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
   // The region of the local solve (see above): the changed rows and `rings` rings of neighbours around
   // them, in local_ and in_local_; false if the change is not local. active_count: the active
@@ -243,6 +254,7 @@ class TissueModel {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> born_;  // (node, first parent) since the last step
   std::vector<std::uint32_t> dirty_list_;
   std::vector<std::uint32_t> changed_;  // rows rebuilt since the last step, sorted
+  bool coarse_has_changes_ = false;     // the coarse preconditioner took changed_ in already
   std::vector<std::uint32_t> local_;    // the nodes of the local solve, sorted
   std::vector<std::uint8_t> in_local_;
   // The groups of the local solve's sweeps (I0, I1, interface; see solve_locally) and their
