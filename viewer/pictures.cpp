@@ -16,6 +16,19 @@ void write_png(const Image& image, const std::filesystem::path& path) {
     throw std::runtime_error("cannot write the picture " + path.string());
 }
 
+Image read_pixels(int width, int height) {
+  Image image{width, height, std::vector<std::uint8_t>(static_cast<std::size_t>(width) * height * 3)};
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, image.rgb.data());
+  // OpenGL's rows run from the bottom.
+  const std::size_t row = static_cast<std::size_t>(width) * 3;
+  for (int y = 0; y < height / 2; ++y)
+    std::swap_ranges(image.rgb.begin() + static_cast<std::ptrdiff_t>(y * row),
+                     image.rgb.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
+                     image.rgb.begin() + static_cast<std::ptrdiff_t>((height - 1 - y) * row));
+  return image;
+}
+
 OffscreenRenderer::OffscreenRenderer(int width, int height)
     : context_(std::make_unique<OffscreenContext>()), width_(width), height_(height) {
   renderer_ = std::make_unique<Renderer>();
@@ -60,16 +73,8 @@ Image OffscreenRenderer::render(const FrameSnapshot& snapshot, const Camera& cam
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, resolved_fbo_);
   glBlitFramebuffer(0, 0, width_, height_, 0, 0, width_, height_, GL_COLOR_BUFFER_BIT, GL_NEAREST);
   glBindFramebuffer(GL_READ_FRAMEBUFFER, resolved_fbo_);
-  Image image{width_, height_, std::vector<std::uint8_t>(static_cast<std::size_t>(width_) * height_ * 3)};
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width_, height_, GL_RGB, GL_UNSIGNED_BYTE, image.rgb.data());
+  Image image = read_pixels(width_, height_);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  // OpenGL's rows run from the bottom.
-  const std::size_t row = static_cast<std::size_t>(width_) * 3;
-  for (int y = 0; y < height_ / 2; ++y)
-    std::swap_ranges(image.rgb.begin() + static_cast<std::ptrdiff_t>(y * row),
-                     image.rgb.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
-                     image.rgb.begin() + static_cast<std::ptrdiff_t>((height_ - 1 - y) * row));
   return image;
 }
 

@@ -25,6 +25,9 @@ struct Image {
   }
 };
 
+// The current read framebuffer's pixels, width x height from the origin, rows from the top.
+[[nodiscard]] Image read_pixels(int width, int height);
+
 // Writes `image` as a PNG file; throws std::runtime_error naming the file when it cannot.
 void write_png(const Image& image, const std::filesystem::path& path);
 

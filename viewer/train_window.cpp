@@ -72,19 +72,6 @@ void on_glfw_error(int code, const char* description) {
   std::fprintf(stderr, "GLFW error %d: %s\n", code, description);
 }
 
-Image read_back_buffer(int width, int height) {
-  Image im{width, height, std::vector<std::uint8_t>(static_cast<std::size_t>(width) * height * 3)};
-  glReadBuffer(GL_BACK);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, im.rgb.data());
-  const std::size_t row = static_cast<std::size_t>(width) * 3;
-  for (int y = 0; y < height / 2; ++y)
-    std::swap_ranges(im.rgb.begin() + static_cast<std::ptrdiff_t>(y * row),
-                     im.rgb.begin() + static_cast<std::ptrdiff_t>((y + 1) * row),
-                     im.rgb.begin() + static_cast<std::ptrdiff_t>((height - 1 - y) * row));
-  return im;
-}
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   const auto at =
@@ -371,7 +358,8 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       const std::filesystem::path path =
           last && !o.final_screenshot.empty() ? o.final_screenshot : o.screenshot_dir / name;
       try {
-        write_png(read_back_buffer(fw, fh), path);
+        glReadBuffer(GL_BACK);
+        write_png(read_pixels(fw, fh), path);
         result.screenshots.push_back(path);
       } catch (const std::exception& e) {
         std::fprintf(stderr, "warning: %s\n", e.what());  // a lost screenshot must not end the session
