@@ -12,6 +12,12 @@ PointerDevice::PointerDevice(PointerMapping mapping) : m_(mapping) {
 DeviceStatus PointerDevice::read(double t, ToolSample& out) noexcept {
   if (input_.update()) AtomicDeviceCounters::bump(counters_.reports);
   const PointerInput& in = input_.read();
+  if (rehome_.exchange(false, std::memory_order_acq_rel)) {
+    last_.position = m_.home;
+    last_.orientation = Eigen::Quaterniond::Identity();
+    lift_ = yaw_ = pitch_ = 0.0;
+    anchored_ = false;
+  }
   const double dt = has_last_t_ ? std::clamp(t - last_t_, 0.0, 0.01) : 0.0;
   last_t_ = t;
   has_last_t_ = true;

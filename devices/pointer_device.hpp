@@ -5,6 +5,7 @@
 // the newest one through a triple buffer. No force output.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 
 #include <Eigen/Geometry>
@@ -40,6 +41,8 @@ class PointerDevice final : public Device {
 
   // Window thread only.
   void publish(const PointerInput& input) { input_.publish(input); }
+  // Any thread: the tool goes back to its home pose at the next read (the cursor is anchored there).
+  void rehome() { rehome_.store(true, std::memory_order_release); }
 
   DeviceStatus read(double t, ToolSample& out) noexcept override;
   [[nodiscard]] DeviceCounters counters() const override { return counters_.snapshot(); }
@@ -47,6 +50,7 @@ class PointerDevice final : public Device {
  private:
   const PointerMapping m_;
   TripleBuffer<PointerInput> input_;
+  std::atomic<bool> rehome_{false};
   AtomicDeviceCounters counters_;
   // Haptic thread only.
   bool anchored_ = false;

@@ -154,10 +154,18 @@ void PoseLogReader::read_preamble() {
 
 bool PoseLogReader::next(ToolSample& sample) {
   std::string_view line;
-  do {
+  while (true) {
     if (!read_line()) return false;
     line = trim(line_text_);
-  } while (line.empty() || line.front() == '#');
+    if (line.empty()) continue;
+    if (line.front() != '#') break;
+    // "# key: value" here is metadata too (a live recording's trailer); other '#' lines are comments.
+    const std::string_view body = line.substr(1);
+    const std::size_t colon = body.find(':');
+    if (colon == std::string_view::npos) continue;
+    const std::string_view key = trim(body.substr(0, colon));
+    if (!key.empty()) metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
+  }
 
   std::array<FieldText, kFrameColumns + 1> f;
   const std::size_t expected = has_frame_ ? kFrameColumns : has_force_ ? kForceColumns : kBaseColumns;
@@ -308,6 +316,14 @@ void PoseLogWriter::write(const ToolSample& s, std::uint64_t frame) {
   out_->write(buffer.data(), p - buffer.data());
   last_t_ = s.t;
   ++count_;
+}
+
+void PoseLogWriter::write_trailer(const std::string& key, const std::string& value) {
+  const bool bad_key =
+      key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
+  if (bad_key || value.find_first_of("\r\n") != std::string::npos)
+    throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
+  *out_ << "# " << key << ": " << value << '\n';
 }
 
 void PoseLogWriter::flush() {

@@ -10,7 +10,8 @@
 // buttons a non-negative integer bitmask; fx, fy, fz [N] the force sent to the device; frame the
 // simulation frame that took the sample (a live session's recording), never decreasing. Numbers are
 // written in the shortest form that reads back to the same double, so record -> replay is exact.
-// Lines starting with '#' after the header are comments; empty lines are skipped.
+// After the header, "# key: value" lines are metadata as well (a trailer), other '#' lines are
+// comments; empty lines are skipped.
 #pragma once
 
 #include <array>
@@ -49,7 +50,8 @@ class PoseLogReader {
 
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] const PoseLogMetadata& metadata() const { return metadata_; }
-  // The value of the first metadata entry with `key`, if any.
+  // The value of the first metadata entry with `key`, if any. Entries after the header (a trailer)
+  // count once the reader has reached them.
   [[nodiscard]] std::optional<std::string> metadata(std::string_view key) const;
   // True when the header has the force columns fx, fy, fz.
   [[nodiscard]] bool has_force() const { return has_force_; }
@@ -94,6 +96,9 @@ class PoseLogWriter {
   // strictly increasing, quaternion not unit, a frame going back), so a written log always reads
   // back. `frame` is written only with the frame column.
   void write(const ToolSample& sample, std::uint64_t frame = 0);
+  // A metadata entry after the samples, "# key: value" (the reader adds it to its metadata once it
+  // has read that far). std::invalid_argument for a key or value the reader would not read back.
+  void write_trailer(const std::string& key, const std::string& value);
   // Throws std::runtime_error when the stream has failed.
   void flush();
 

@@ -341,6 +341,7 @@ int cmd_train(const TrainArgs& a) {
   std::signal(SIGTERM, on_interrupt);
   const TrainWindowResult r = run_train_window(session, pointer, playback, wo);
   if (!session.haptic_warning().empty()) std::cerr << "warning: " << session.haptic_warning() << "\n";
+  session.update();  // the last frame the session published
   const SessionFrame& last = session.frame();
   const std::vector<double> periods = session.haptic_periods();
   std::cout << "session on " << scenario_path.string() << ": " << last.status.time << " s\n";

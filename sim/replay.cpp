@@ -1,6 +1,7 @@
 #include "sim/replay.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -140,6 +141,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   // A live session's recording is played sample by sample, in the frames that took them
   // (docs/formats.md).
   std::vector<std::uint64_t> sample_frames;
+  std::uint64_t frame_count = 0;
   bool verbatim = false;
   {
     PoseLogReader reader(log_path.string());
@@ -151,6 +153,19 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     if (verbatim && !reader.has_frame())
       throw InputError(log_path.string(), 0, 0, "playback", "verbatim playback needs the frame column");
     for (ToolSample s; verbatim && reader.next(s);) sample_frames.push_back(reader.frame());
+    if (verbatim) {
+      // The session's frames, also those after its last sample (the trailer a finished session
+      // writes); a killed one's end with the frame of its last sample.
+      frame_count = sample_frames.empty() ? 0 : sample_frames.back();
+      if (const auto trailer = reader.metadata("frames")) {
+        std::uint64_t n = 0;
+        const auto [end, ec] = std::from_chars(trailer->data(), trailer->data() + trailer->size(), n);
+        if (ec != std::errc() || end != trailer->data() + trailer->size() || n < frame_count)
+          throw InputError(log_path.string(), 0, 0, "frames",
+                           "'" + *trailer + "' is not the number of frames of the session");
+        frame_count = n;
+      }
+    }
   }
   Simulation sim(scenario);
   const MeshSummary initial = summarize(sim.mesh());
@@ -167,8 +182,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
 
   const double duration = log.back().t - log.front().t;
   const double visual_rate = scenario.simulation.visual_rate;
-  // Verbatim: the session's frames, up to the one that took the last sample.
-  const auto frames = verbatim ? static_cast<std::size_t>(sample_frames.back())
+  // Verbatim: the frames the session ran (frame_count, above).
+  const auto frames = verbatim ? static_cast<std::size_t>(frame_count)
                                : static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
   std::size_t cycles = 0;
   std::vector<double> frame_seconds;

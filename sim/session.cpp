@@ -60,14 +60,12 @@ void Session::stop() {
   stop_.store(true, std::memory_order_release);
   if (sim_thread_.joinable()) sim_thread_.join();
   loop_->stop();
-  if (writer_) {
-    try {
-      writer_->flush();
-    } catch (const std::exception& e) {
-      if (!failed_.load()) {
-        error_ = e.what();
-        failed_.store(true, std::memory_order_release);
-      }
+  try {
+    finish_recording();  // the simulation thread has finished it, unless it never started
+  } catch (const std::exception& e) {
+    if (!failed_.load()) {
+      error_ = e.what();
+      failed_.store(true, std::memory_order_release);
     }
   }
 }
@@ -90,31 +88,50 @@ void Session::begin_attempt() {
   FrameSnapshot probe;
   sim_->snapshot(probe);
   surface_z_ = probe.bounds_max.z();
+  finish_recording();
+  attempt_frames_ = 0;
+  attempt_seconds_.clear();
+}
+
+void Session::record(const ToolSample& s, std::uint64_t frame) {
   if (options_.record.empty()) return;
-  if (writer_) writer_->flush();
-  const std::filesystem::path path = attempt_path(options_.record, recordings_.size() + 1);
-  char rate[32];
-  std::snprintf(rate, sizeof rate, "%g Hz", scenario_.device.rate);
-  // verbatim: replayed sample by sample, in the frames that took them (docs/formats.md).
-  writer_ = std::make_unique<PoseLogWriter>(path.string(),
-                                            PoseLogMetadata{{"device", options_.device_name},
-                                                            {"scenario", scenario_.name},
-                                                            {"rate", rate},
-                                                            {"playback", "verbatim"}},
-                                            true, true);
-  recordings_.push_back(path);
+  if (!writer_) {
+    // Opened at the attempt's first sample: an attempt without one leaves no file.
+    const std::filesystem::path path = attempt_path(options_.record, recordings_.size() + 1);
+    char rate[32];
+    std::snprintf(rate, sizeof rate, "%g Hz", scenario_.device.rate);
+    // verbatim: replayed sample by sample, in the frames that took them (docs/formats.md).
+    writer_ = std::make_unique<PoseLogWriter>(path.string(),
+                                              PoseLogMetadata{{"device", options_.device_name},
+                                                              {"scenario", scenario_.name},
+                                                              {"rate", rate},
+                                                              {"playback", "verbatim"}},
+                                              true, true);
+    recordings_.push_back(path);
+  }
+  writer_->write(s, frame);
+}
+
+void Session::finish_recording() {
+  if (!writer_) return;
+  // The frames the attempt ran, also those after its last sample: a replay runs them all.
+  writer_->write_trailer("frames", std::to_string(attempt_frames_));
+  writer_->flush();
+  writer_.reset();
 }
 
 void Session::publish_frame(double frame_seconds) {
   SessionFrame& f = frames_.back();
   sim_->snapshot(f.snapshot, edges_.load(std::memory_order_relaxed));
-  f.snapshot.frame = frame_seconds_.size();
+  f.snapshot.frame = attempt_frames_;
   SessionStatus& s = f.status;
   s.time = sim_->time();
   s.frame_seconds = frame_seconds;
-  const std::size_t n = std::min(frame_seconds_.size(), kFrameWindow);
+  const std::size_t n = std::min(attempt_seconds_.size(), kFrameWindow);
+  s.frame_seconds_p99 = 0.0;
   if (n > 0) {
-    std::vector<double> recent(frame_seconds_.end() - static_cast<std::ptrdiff_t>(n), frame_seconds_.end());
+    std::vector<double> recent(attempt_seconds_.end() - static_cast<std::ptrdiff_t>(n),
+                               attempt_seconds_.end());
     const auto at = recent.begin() + static_cast<std::ptrdiff_t>(std::min(n - 1, (n * 99) / 100));
     std::nth_element(recent.begin(), at, recent.end());
     s.frame_seconds_p99 = *at;
@@ -148,9 +165,12 @@ void Session::sim_main() noexcept {
     failed_.store(true, std::memory_order_release);
   }
   try {
-    if (writer_) writer_->flush();
-  } catch (...) {
-    // stop() reports a failed flush.
+    finish_recording();
+  } catch (const std::exception& e) {
+    if (!failed_.load()) {
+      error_ = e.what();
+      failed_.store(true, std::memory_order_release);
+    }
   }
 }
 
@@ -180,7 +200,6 @@ void Session::run_frames() {
       ToolSample drop;
       while (queue_.pop(drop)) ++popped_;
       resets_done_ = resets;
-      frame_seconds_.clear();
       begin_attempt();
       k = 0;
       last_t = 0.0;
@@ -201,12 +220,14 @@ void Session::run_frames() {
     }
 
     std::this_thread::sleep_until(deadline);
+    const auto start = Clock::now();
     ++k;
-    // The frame takes every sample the loop has sent: the blade is where the hand is, even when
-    // frames take longer than 1 / visual_rate. The tissue steps once a frame, so it then runs
-    // slower than real time instead of taking steps it cannot afford.
+    // The frame takes every sample the loop had sent when it started: the blade is where the hand
+    // is, even when frames take longer than 1 / visual_rate. The tissue steps once a frame, so it
+    // then runs slower than real time instead of taking steps it cannot afford.
+    const std::uint64_t sent = loop_->stats().samples_pushed;
     ToolSample s;
-    while (queue_.pop(s)) {
+    while (popped_ < sent && queue_.pop(s)) {
       ++popped_;
       if (!anchored) {
         // Session time goes on from the last sample, one haptic period later.
@@ -215,13 +236,15 @@ void Session::run_frames() {
       }
       s.t -= origin;
       last_t = s.t;
-      if (writer_) writer_->write(s, k);
+      record(s, k);
       sim_->on_sample(s);
     }
-    const auto start = Clock::now();
     sim_->end_frame(static_cast<double>(k) / visual_rate, forces_);
-    frame_seconds_.push_back(std::chrono::duration<double>(Clock::now() - start).count());
-    publish_frame(frame_seconds_.back());
+    attempt_frames_ = k;
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();  // cuts and tissue
+    frame_seconds_.push_back(seconds);
+    attempt_seconds_.push_back(seconds);
+    publish_frame(seconds);
     if (writer_ && ++since_flush * frame_duration >= std::chrono::milliseconds(100)) {
       writer_->flush();  // a killed session keeps all but the last 0.1 s
       since_flush = 0;

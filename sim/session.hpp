@@ -37,7 +37,7 @@ class Simulation;
 // The figures of a session after one simulation frame, for the trainee's overlay.
 struct SessionStatus {
   double time = 0.0;                // [s] tissue time at the end of the frame
-  double frame_seconds = 0.0;       // [s] the simulation's compute time for the frame
+  double frame_seconds = 0.0;       // [s] the simulation's compute time for the frame: cuts and tissue
   double frame_seconds_p99 = 0.0;   // [s] over the last 256 frames
   double haptic_rate = 0.0;         // [Hz] measured since the session started
   double haptic_jitter = 0.0;       // [s] RMS of (period - 1 / rate)
@@ -101,7 +101,8 @@ class Session {
   [[nodiscard]] std::vector<double> haptic_periods() const { return loop_->periods(); }
   // The simulation of the current attempt (read it after stop()).
   [[nodiscard]] const Simulation& simulation() const { return *sim_; }
-  // The simulation's compute time per frame [s], every frame (valid after stop()).
+  // The simulation's compute time per frame [s] (the frame's cut steps and tissue step), every
+  // frame of every attempt (valid after stop()).
   [[nodiscard]] const std::vector<double>& frame_seconds() const { return frame_seconds_; }
 
  private:
@@ -109,6 +110,8 @@ class Session {
   void run_frames();
   void begin_attempt();
   void publish_frame(double frame_seconds);
+  void record(const ToolSample& s, std::uint64_t frame);
+  void finish_recording();
 
   Scenario scenario_;
   Device& device_;
@@ -130,6 +133,8 @@ class Session {
   std::unique_ptr<PoseLogWriter> writer_;
   std::vector<std::filesystem::path> recordings_;
   std::vector<double> frame_seconds_;
+  std::vector<double> attempt_seconds_;  // this attempt's, for the overlay
+  std::uint64_t attempt_frames_ = 0;
   std::string error_;  // guarded by failed_: written before it is set
   double surface_z_ = 0.0;
   std::uint64_t last_not_ok_ = 0;

@@ -24,9 +24,11 @@ Vec3 Camera::eye() const {
 
 Eigen::Matrix4d Camera::view() const {
   const Vec3 back = eye_direction(yaw, pitch);  // the camera looks along -back
-  // Looking straight down, z cannot be up: the screen's up is then the horizontal direction away
-  // from the eye's side (+y for yaw -90 degrees).
-  Vec3 up = std::abs(back.z()) > 0.999 ? Vec3(-std::cos(yaw), -std::sin(yaw), 0.0) : Vec3::UnitZ();
+  // Looking straight down (or up), z cannot be up: the screen's up is then the horizontal
+  // direction away from the eye's side (+y for yaw -90 degrees from above), as just off vertical.
+  Vec3 up = std::abs(back.z()) > 0.999
+                ? Vec3(-std::copysign(1.0, back.z()) * Vec3(std::cos(yaw), std::sin(yaw), 0.0))
+                : Vec3::UnitZ();
   const Vec3 right = up.cross(back).normalized();
   up = back.cross(right);
   Eigen::Matrix4d v = Eigen::Matrix4d::Identity();

@@ -11,6 +11,8 @@ class OffscreenContext {
   // what is missing, when EGL or a 3.3 core context is not available.
   OffscreenContext();
   ~OffscreenContext();
+  // Makes it current on the calling thread (another context may have been).
+  void make_current();
   OffscreenContext(const OffscreenContext&) = delete;
   OffscreenContext& operator=(const OffscreenContext&) = delete;
 

@@ -56,6 +56,11 @@ OffscreenRenderer::OffscreenRenderer(int width, int height)
 }
 
 OffscreenRenderer::~OffscreenRenderer() {
+  try {
+    context_->make_current();
+  } catch (const RenderError&) {
+    return;  // the context is gone; so are its objects
+  }
   renderer_.reset();
   glDeleteFramebuffers(1, &multisampled_fbo_);
   glDeleteFramebuffers(1, &resolved_fbo_);

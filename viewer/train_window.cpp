@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <exception>
 #include <string>
 #include <thread>
@@ -186,19 +187,34 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
   const double frame_period = 1.0 / session.visual_rate();
   // A published frame wakes the window thread (glfwPostEmptyEvent may be called from any thread).
   session.set_on_publish([] { glfwPostEmptyEvent(); });
+  // The session stops before GLFW goes, also when the loop throws: its thread calls into GLFW.
+  struct StopSession {
+    Session& session;
+    ~StopSession() {
+      session.stop();
+      session.set_on_publish({});
+    }
+  } stop_session{session};
   session.start();
   std::uint64_t seen_events = 0;
   bool first = true;
+  // Back to the scenario's start: the mouse's blade goes home too, so it does not start the new
+  // attempt inside the tissue.
+  const auto reset = [&] {
+    if (pointer) pointer->rehome();
+    session.request_reset();
+  };
 
-  while (!glfwWindowShouldClose(window)) {
+  while (true) {
     // A picture when there is something new to show: a frame of the session, or input. Otherwise
     // the thread sleeps, and the processor is the simulation's.
     glfwWaitEventsTimeout(0.1);
     const bool fresh = session.update();
-    const bool closing =
+    const bool timed_out =
         o.close_after > 0 && std::chrono::duration<double>(Clock::now() - opened).count() >= o.close_after;
-    if (closing || session.failed() || (o.stop && o.stop->load()))
-      glfwSetWindowShouldClose(window, GLFW_TRUE);
+    // Closing (the close button, Esc, a time limit, Ctrl-C, a failed session): one last picture.
+    const bool closing =
+        glfwWindowShouldClose(window) || timed_out || session.failed() || (o.stop && o.stop->load());
     if (!fresh && input.events == seen_events && !first && !closing) continue;
     seen_events = input.events;
     first = false;
@@ -228,7 +244,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     if (!io.WantCaptureKeyboard) {
       if (keys.pressed(window, GLFW_KEY_ESCAPE)) glfwSetWindowShouldClose(window, GLFW_TRUE);
       if (keys.pressed(window, GLFW_KEY_SPACE)) session.set_paused(!session.paused());
-      if (keys.pressed(window, GLFW_KEY_R)) session.request_reset();
+      if (keys.pressed(window, GLFW_KEY_R)) reset();
       if (keys.pressed(window, GLFW_KEY_T))
         render_options.transparent_skin = !render_options.transparent_skin;
       if (keys.pressed(window, GLFW_KEY_F)) render_options.wireframe = !render_options.wireframe;
@@ -279,9 +295,13 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     ImGui::SetNextWindowSize(ImVec2(kPanelWidth, 0), ImGuiCond_FirstUseEver);
     ImGui::Begin("Session");
     ImGui::Text("%s   t = %.1f s%s", o.title.c_str(), st.time, st.paused ? "   PAUSED" : "");
-    if (!st.device_ok)
-      ImGui::TextColored(ImVec4(1, 0.5f, 0.2f, 1), "%s",
-                         playback ? "Playback at its end" : "Device not responding: the blade is frozen");
+    if (!st.device_ok) {
+      if (pointer)  // held on purpose: over the panel, the camera moving, paused, out of the window
+        ImGui::TextDisabled("Blade held still");
+      else
+        ImGui::TextColored(ImVec4(1, 0.5f, 0.2f, 1), "%s",
+                           playback ? "Playback at its end" : "Device not responding: the blade is frozen");
+    }
     if (st.has_task) {
       ImGui::Separator();
       ImGui::TextDisabled("Your incision");
@@ -292,7 +312,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       ImGui::SameLine(170);
       ImGui::TextColored(
           t.mean_deviation <= t.tolerance ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.4f, 0.4f, 1),
-          "%.2f mm (max %.1f)", 1e3 * t.mean_deviation, 1e3 * t.tolerance);
+          "%.2f mm (allowed %.1f)", 1e3 * t.mean_deviation, 1e3 * t.tolerance);
       ImGui::TextUnformatted("Depth");
       ImGui::SameLine(170);
       ImGui::TextColored(t.depth_ok ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.8f, 0.3f, 1),
@@ -321,7 +341,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     if (ImGui::Button(session.paused() ? "Resume (Space)" : "Pause (Space)"))
       session.set_paused(!session.paused());
     ImGui::SameLine();
-    if (ImGui::Button("Reset (R)")) session.request_reset();
+    if (ImGui::Button("Reset (R)")) reset();
     ImGui::SameLine();
     if (ImGui::Button("Screenshot (P)")) screenshot = true;
     ImGui::Checkbox("See-through skin (T)", &render_options.transparent_skin);
@@ -349,14 +369,18 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
     // At the end of a playback: the device has run out and the simulation has taken its last pose.
-    const bool ended = o.close_at_end && playback && st.playback_ended;
-    if (ended) glfwSetWindowShouldClose(window, GLFW_TRUE);
-    const bool last = closing || ended;
-    if (screenshot || (last && !o.final_screenshot.empty())) {
+    if (o.close_at_end && playback && st.playback_ended) glfwSetWindowShouldClose(window, GLFW_TRUE);
+    if (screenshot || (closing && !o.final_screenshot.empty())) {
+      // Named by the wall-clock time, so a later session does not overwrite them.
+      char stamp[32] = "";
+      const std::time_t now = std::time(nullptr);
+      std::tm local{};
+      localtime_r(&now, &local);
+      std::strftime(stamp, sizeof stamp, "%Y%m%d-%H%M%S", &local);
       char name[64];
-      std::snprintf(name, sizeof name, "scalpelsim-%06zu.png", static_cast<std::size_t>(f.snapshot.frame));
+      std::snprintf(name, sizeof name, "scalpelsim-%s-%zu.png", stamp, result.screenshots.size() + 1);
       const std::filesystem::path path =
-          last && !o.final_screenshot.empty() ? o.final_screenshot : o.screenshot_dir / name;
+          closing && !o.final_screenshot.empty() ? o.final_screenshot : o.screenshot_dir / name;
       try {
         glReadBuffer(GL_BACK);
         write_png(read_pixels(fw, fh), path);
@@ -368,12 +392,11 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     }
     glfwSwapBuffers(window);
     result.render_seconds.push_back(std::chrono::duration<double>(Clock::now() - frame_start).count());
+    if (closing) break;
     // At most one picture per visual frame, also on a display without vertical sync (a virtual one).
     const double rest = frame_period - std::chrono::duration<double>(Clock::now() - frame_start).count();
     if (rest > 0) std::this_thread::sleep_for(std::chrono::duration<double>(rest));
   }
-  session.set_on_publish({});
-  session.stop();
   return result;
 }
 

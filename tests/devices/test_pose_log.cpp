@@ -114,6 +114,7 @@ TEST_CASE("pose log: a live recording's frame column round-trips and implies the
   std::ostringstream out;
   PoseLogWriter w(out, "mem", {{"playback", "verbatim"}}, false, true);
   for (std::size_t i = 0; i < samples.size(); ++i) w.write(samples[i], i / 7);
+  w.write_trailer("frames", "40");
   w.flush();
   CHECK_THROWS_AS(w.write(
                       [&] {
@@ -133,6 +134,7 @@ TEST_CASE("pose log: a live recording's frame column round-trips and implies the
     CHECK(r.frame() == i / 7);
   }
   CHECK(i == samples.size());
+  CHECK(r.metadata("frames") == "40");  // the trailer, read once the reader reached it
 }
 
 TEST_CASE("pose log: file round trip through read_pose_log") {

@@ -43,8 +43,7 @@ TEST_CASE("a live session's recording replays headless to the same mesh, bit for
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session";
   fs::remove_all(dir);
   fs::create_directories(dir);
-  PlaybackDevice device(read_pose_log(scenario.log->string()));
-  device.set_speed(4.0);
+  PlaybackDevice device(read_pose_log(scenario.log->string()));  // at real speed
   SessionOptions options;
   options.record = dir / "session.csv";
   options.device_name = "playback";
@@ -63,13 +62,16 @@ TEST_CASE("a live session's recording replays headless to the same mesh, bit for
   REQUIRE(session.recordings().size() == 1);
   const Simulation& live = session.simulation();
 
-  // The recording: every sample the simulation took, marked for verbatim playback.
+  // The recording: every sample the simulation took, marked for verbatim playback, and the number
+  // of frames the session ran.
   PoseLogReader reader(session.recordings()[0].string());
   CHECK(reader.metadata("playback") == "verbatim");
   CHECK(reader.has_force());
+  CHECK(reader.has_frame());
   std::size_t samples = 0;
   for (ToolSample s; reader.next(s);) ++samples;
   CHECK(samples == live.samples());
+  CHECK(reader.metadata("frames") == std::to_string(live.tissue_steps().size()));
 
   bool replayed = false;
   std::vector<Vec3> positions;

@@ -139,6 +139,10 @@ TEST_CASE("the bundled replay's pictures show the gaping wound along the target 
   // The blade: the middle of its edge, where the last sample put it, is drawn in steel.
   REQUIRE(r.last.has_blade);
   const Vec3 middle = top.camera.project((r.last.blade_back + r.last.blade_tip) / 2, kWidth, kHeight);
+  REQUIRE(middle.x() >= 1);
+  REQUIRE(middle.y() >= 1);
+  REQUIRE(middle.x() < kWidth - 1);
+  REQUIRE(middle.y() < kHeight - 1);
   bool blade = false;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx)

@@ -94,7 +94,7 @@ TEST_CASE("the trainee's window shows a played-back incision opening, with its o
   wo.final_screenshot = dir / "window.png";
   const TrainWindowResult r = run_train_window(session, nullptr, &device, wo);
   REQUIRE_FALSE(session.failed());
-  CHECK(r.render_seconds.size() > 10);
+  CHECK(r.render_seconds.size() >= 2);
   REQUIRE(r.screenshots.size() == 1);
   REQUIRE(fs::exists(wo.final_screenshot));
 
