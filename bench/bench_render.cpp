@@ -1,7 +1,8 @@
 // The window's cost (viewer/): the snapshot the simulation thread fills after each frame, and the
 // render thread's frame, on the bundled skin patch (4 950 tetrahedra) and on the same patch at
-// twice the resolution in the plane (19 800), both cut by the bundled incision. Rendering is
-// offscreen (EGL); on a machine without a GPU Mesa draws with llvmpipe. Prints p50 and p99.
+// twice the resolution in the plane (19 800), both cut by the bundled incision: the scene as the
+// window draws it, and a picture as `replay --images` writes it. Rendering is offscreen (EGL); on a
+// machine without a GPU Mesa draws with llvmpipe. Prints p50 and p99.
 //
 //   ./build/release/bench/bench_render [frames]
 #include <algorithm>
@@ -69,13 +70,18 @@ Cut cut_patch(const std::string& cells, int fills) {
   return c;
 }
 
+// `picture`: drawn multisampled, resolved and read back, as `replay --images` does; otherwise only
+// drawn, as the window does (without its overlay and swap).
 void render(const char* name, OffscreenRenderer& renderer, const FrameSnapshot& s, const RenderOptions& o,
-            int frames) {
+            int frames, bool picture) {
   const Camera camera = replay_views(s, static_cast<double>(renderer.width()) / renderer.height())[1].camera;
   std::vector<double> t;
   for (int i = 0; i < frames; ++i) {
     const auto t0 = Clock::now();
-    (void)renderer.render(s, camera, o);  // draws, resolves and reads the picture back
+    if (picture)
+      (void)renderer.render(s, camera, o);
+    else
+      renderer.draw(s, camera, o);
     t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
   }
   std::printf("  %-44s p50 %6.2f ms  p99 %6.2f ms\n", name, 1e3 * quantile(t, 0.5), 1e3 * quantile(t, 0.99));
@@ -85,9 +91,8 @@ void render(const char* name, OffscreenRenderer& renderer, const FrameSnapshot& 
 
 int main(int argc, char** argv) {
   const int frames = argc > 1 ? std::max(1, std::atoi(argv[1])) : 100;
-  OffscreenRenderer renderer(1280, 800);
-  std::printf("renderer: %s, %s; 1280 x 800, 4x multisampled, with read-back\n",
-              reinterpret_cast<const char*>(glGetString(GL_RENDERER)),
+  OffscreenRenderer window(1024, 640, 1), pictures(1200, 900, 4);
+  std::printf("renderer: %s, %s\n", reinterpret_cast<const char*>(glGetString(GL_RENDERER)),
               reinterpret_cast<const char*>(glGetString(GL_VERSION)));
   for (const auto& [cells, label] : {std::pair{std::string("[15, 11]"), "bundled patch"},
                                      std::pair{std::string("[30, 22]"), "patch at twice the resolution"}}) {
@@ -103,9 +108,10 @@ int main(int argc, char** argv) {
     RenderOptions plain, see_through, edges;
     see_through.transparent_skin = true;
     edges.wireframe = true;
-    render("render frame", renderer, c.snapshot, plain, frames);
-    render("render frame, see-through skin", renderer, c.snapshot, see_through, frames);
-    render("render frame, tetrahedra", renderer, c.with_edges, edges, frames);
+    render("scene as the window draws it, 1024 x 640", window, c.snapshot, plain, frames, false);
+    render("  see-through skin", window, c.snapshot, see_through, frames, false);
+    render("  tetrahedra", window, c.with_edges, edges, frames, false);
+    render("picture, 1200 x 900, 4x multisampled, read back", pictures, c.snapshot, plain, frames, true);
   }
   return 0;
 }

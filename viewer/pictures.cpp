@@ -29,7 +29,7 @@ Image read_pixels(int width, int height) {
   return image;
 }
 
-OffscreenRenderer::OffscreenRenderer(int width, int height)
+OffscreenRenderer::OffscreenRenderer(int width, int height, int samples)
     : context_(std::make_unique<OffscreenContext>()), width_(width), height_(height) {
   renderer_ = std::make_unique<Renderer>();
   glGenFramebuffers(1, &multisampled_fbo_);
@@ -37,10 +37,11 @@ OffscreenRenderer::OffscreenRenderer(int width, int height)
   glGenRenderbuffers(1, &depth_rb_);
   glBindFramebuffer(GL_FRAMEBUFFER, multisampled_fbo_);
   glBindRenderbuffer(GL_RENDERBUFFER, colour_rb_);
-  glRenderbufferStorageMultisample(GL_RENDERBUFFER, 4, GL_RGBA8, width, height);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples > 1 ? samples : 0, GL_RGBA8, width, height);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_rb_);
   glBindRenderbuffer(GL_RENDERBUFFER, depth_rb_);
-  glRenderbufferStorageMultisample(GL_RENDERBUFFER, 4, GL_DEPTH_COMPONENT24, width, height);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples > 1 ? samples : 0, GL_DEPTH_COMPONENT24, width,
+                                   height);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_rb_);
   if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
     throw RenderError("offscreen rendering: the multisampled framebuffer is incomplete");
@@ -69,8 +70,18 @@ OffscreenRenderer::~OffscreenRenderer() {
   glDeleteRenderbuffers(1, &resolved_rb_);
 }
 
+void OffscreenRenderer::draw(const FrameSnapshot& snapshot, const Camera& camera,
+                             const RenderOptions& options) {
+  context_->make_current();
+  glBindFramebuffer(GL_FRAMEBUFFER, multisampled_fbo_);
+  renderer_->draw(snapshot, camera, options, width_, height_);
+  glFinish();
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
 Image OffscreenRenderer::render(const FrameSnapshot& snapshot, const Camera& camera,
                                 const RenderOptions& options) {
+  context_->make_current();
   glBindFramebuffer(GL_FRAMEBUFFER, multisampled_fbo_);
   glEnable(GL_MULTISAMPLE);
   renderer_->draw(snapshot, camera, options, width_, height_);

@@ -33,17 +33,19 @@ void write_png(const Image& image, const std::filesystem::path& path);
 
 class OffscreenContext;
 
-// Draws snapshots into pictures of one size, 4x multisampled. Owns its context: create and use it
-// on one thread.
+// Draws snapshots into pictures of one size, multisampled `samples` times (1: not). Owns its
+// context: create and use it on one thread.
 class OffscreenRenderer {
  public:
-  OffscreenRenderer(int width, int height);  // throws RenderError
+  OffscreenRenderer(int width, int height, int samples = 4);  // throws RenderError
   ~OffscreenRenderer();
   OffscreenRenderer(const OffscreenRenderer&) = delete;
   OffscreenRenderer& operator=(const OffscreenRenderer&) = delete;
 
   [[nodiscard]] Image render(const FrameSnapshot& snapshot, const Camera& camera,
                              const RenderOptions& options);
+  // Draws without reading the picture back, and waits until it is drawn (for timing).
+  void draw(const FrameSnapshot& snapshot, const Camera& camera, const RenderOptions& options);
   [[nodiscard]] int width() const { return width_; }
   [[nodiscard]] int height() const { return height_; }
 
