@@ -22,6 +22,9 @@ std::filesystem::path attempt_path(const std::filesystem::path& path, std::size_
 }
 
 constexpr std::size_t kFrameWindow = 256;  // frames of the overlay's p99
+// A tool that moved less than this while paused resumes as it is, without a clutch.
+constexpr double kClutchDistance = 1e-6;  // [m]
+constexpr double kClutchAngle = 1e-6;     // [rad]
 
 }  // namespace
 
@@ -184,6 +187,14 @@ void Session::run_frames() {
   double origin = 0.0;    // loop time of session time 0
   double last_t = 0.0;    // session time of the last sample taken
   bool anchored = false;  // origin set: from the first sample, and again after a pause
+  // The clutch: device poses are taken to the simulation by x -> R x + t. A pause re-engages it
+  // so the tool resumes where it stood, wherever the hand has gone meanwhile (a hand-held device
+  // keeps moving; the mouse and a playback hold still, and then it stays as it was).
+  Eigen::Quaterniond clutch_r = Eigen::Quaterniond::Identity();
+  Vec3 clutch_t = Vec3::Zero();
+  bool clutched = false;  // R, t are not the identity
+  bool has_last = false;  // a sample of this attempt was taken: the clutch has a pose to resume at
+  ToolSample last;
   std::size_t since_flush = 0;
   auto deadline = Clock::now() + frame_duration;
 
@@ -204,6 +215,9 @@ void Session::run_frames() {
       k = 0;
       last_t = 0.0;
       anchored = false;
+      has_last = clutched = false;
+      clutch_r = Eigen::Quaterniond::Identity();
+      clutch_t = Vec3::Zero();
       publish_frame(0.0);
       deadline = Clock::now() + frame_duration;
       continue;
@@ -230,14 +244,30 @@ void Session::run_frames() {
     while (popped_ < sent && queue_.pop(s)) {
       ++popped_;
       if (!anchored) {
-        // Session time goes on from the last sample, one haptic period later.
+        // Session time goes on from the last sample, one haptic period later, and the tool from
+        // its last pose.
         origin = s.t - (last_t + period);
         anchored = true;
+        const Vec3 p = clutch_r * s.position + clutch_t;
+        const Eigen::Quaterniond q = clutch_r * s.orientation;
+        if (has_last && ((p - last.position).norm() > kClutchDistance ||
+                         q.angularDistance(last.orientation) > kClutchAngle)) {
+          const Eigen::Quaterniond turn = (last.orientation * q.inverse()).normalized();
+          clutch_r = (turn * clutch_r).normalized();
+          clutch_t = turn * (clutch_t - p) + last.position;
+          clutched = true;
+        }
+      }
+      if (clutched) {
+        s.position = clutch_r * s.position + clutch_t;
+        s.orientation = (clutch_r * s.orientation).normalized();
       }
       s.t -= origin;
       last_t = s.t;
       record(s, k);
       sim_->on_sample(s);
+      last = s;
+      has_last = true;
     }
     sim_->end_frame(static_cast<double>(k) / visual_rate, forces_);
     attempt_frames_ = k;

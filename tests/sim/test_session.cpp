@@ -165,3 +165,51 @@ TEST_CASE("a verbatim log without the frame column, or with an unknown playback,
     }
   }
 }
+
+namespace {
+
+// A hand that keeps moving along x at 5 cm/s, 2 cm above the skin, whatever the session does.
+class MovingHand final : public Device {
+ public:
+  DeviceStatus read(double t, ToolSample& out) noexcept override {
+    out = ToolSample{};
+    out.t = t;
+    out.position = Vec3(0.05 * t - 0.01, 0.0, 0.02);
+    return DeviceStatus::Ok;
+  }
+  [[nodiscard]] DeviceCounters counters() const override { return {}; }
+};
+
+}  // namespace
+
+TEST_CASE("a tool moved during a pause resumes where it stood: no jump for the cutter") {
+  const Scenario scenario = bundled();
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_clutch";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  MovingHand hand;
+  SessionOptions options;
+  options.record = dir / "clutch.csv";
+  Session session(scenario, hand, nullptr, options);
+  session.start();
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.time >= 0.1; }));
+  session.set_paused(true);
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.paused; }));
+  // The hand moves on for a while (5 mm in 0.1 s) while the simulation stands still.
+  const auto until = Clock::now() + std::chrono::milliseconds(100);
+  REQUIRE(watch(session, [&](const SessionFrame&) { return Clock::now() >= until; }));
+  const double paused_at = session.frame().status.time;
+  session.set_paused(false);
+  REQUIRE(watch(session, [&](const SessionFrame& f) { return f.status.time >= paused_at + 0.1; }));
+  session.stop();
+  REQUIRE_FALSE(session.failed());
+  // Consecutive samples the simulation took are never farther apart than the hand moves in a few
+  // haptic periods, across the pause too.
+  const std::vector<ToolSample> log = read_pose_log(session.recordings().at(0).string());
+  REQUIRE(log.size() > 100);
+  double largest = 0.0;
+  for (std::size_t i = 1; i < log.size(); ++i)
+    largest = std::max(largest, (log[i].position - log[i - 1].position).norm());
+  MESSAGE("largest step between samples " << largest * 1e3 << " mm over " << log.size() << " samples");
+  CHECK(largest < 0.05 * 0.01);  // 10 ms of the hand's motion; the pause alone is 5 mm
+}
