@@ -28,7 +28,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr float kPanelWidth = 330.0f;  // [px] the overlay's width
+constexpr float kPanelWidth = 360.0f;  // [px] the overlay's width
 
 // What the GLFW callbacks change, reached through the window's user pointer.
 struct InputState {
