@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/quantile.hpp"
 #include "sim/replay.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
@@ -27,11 +28,6 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-double quantile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
-}
 
 struct Cut {
   FrameSnapshot snapshot, with_edges;

@@ -14,20 +14,13 @@
 
 #include "devices/playback_device.hpp"
 #include "devices/pose_log.hpp"
+#include "sim/quantile.hpp"
 #include "sim/scenario.hpp"
 #include "sim/session.hpp"
 
 using namespace scalpel;
 
-namespace {
-
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
-}
-
-}  // namespace
+namespace {}  // namespace
 
 int main(int argc, char** argv) {
   const double speed = argc > 1 ? std::atof(argv[1]) : 1.0;

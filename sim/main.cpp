@@ -20,6 +20,7 @@
 #include "devices/pose_log.hpp"
 #include "haptics/recorder.hpp"
 #include "sim/log_generator.hpp"
+#include "sim/quantile.hpp"
 #include "sim/replay.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
@@ -263,14 +264,6 @@ struct TrainArgs {
   double speed = 1.0, close_after = 0.0;
   bool transparent = false, wireframe = false, close_at_end = false;
 };
-
-#ifdef SCALPEL_HAVE_GUI
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
-}
-#endif
 
 int cmd_train(const TrainArgs& a) {
 #ifndef SCALPEL_HAVE_GUI

@@ -16,6 +16,7 @@
 #include "devices/pose_log.hpp"
 #include "haptics/haptic_loop.hpp"
 #include "haptics/tool_queue.hpp"
+#include "sim/quantile.hpp"
 #include "sim/simulation.hpp"
 #include "sim/task_score.hpp"
 #include "sim/version.hpp"
@@ -31,17 +32,13 @@ using json = nlohmann::ordered_json;
 constexpr double kWoundBand = 3.0;
 constexpr double kWoundWindow = 4e-3;
 
-json percentiles(std::vector<double> v, double scale) {
+json percentiles(const std::vector<double>& v, double scale) {
   json j;
   if (v.empty()) return j;
-  std::sort(v.begin(), v.end());
-  auto at = [&](double q) {
-    return v[static_cast<size_t>(std::floor(q * static_cast<double>(v.size() - 1)))] * scale;
-  };
-  j["p50"] = at(0.50);
-  j["p95"] = at(0.95);
-  j["p99"] = at(0.99);
-  j["max"] = v.back() * scale;
+  j["p50"] = quantile(v, 0.50) * scale;
+  j["p95"] = quantile(v, 0.95) * scale;
+  j["p99"] = quantile(v, 0.99) * scale;
+  j["max"] = quantile(v, 1.0) * scale;
   return j;
 }
 
@@ -136,10 +133,9 @@ json deterministic_part(const json& report) {
 ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
                     const ReplayOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
-  std::vector<ToolSample> log = read_pose_log(log_path.string());
-  if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
   // A live session's recording is played sample by sample, in the frames that took them
   // (docs/formats.md).
+  std::vector<ToolSample> log;
   std::vector<std::uint64_t> sample_frames;
   std::uint64_t frame_count = 0;
   bool verbatim = false;
@@ -152,7 +148,11 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     verbatim = playback && *playback == "verbatim";
     if (verbatim && !reader.has_frame())
       throw InputError(log_path.string(), 0, 0, "playback", "verbatim playback needs the frame column");
-    for (ToolSample s; verbatim && reader.next(s);) sample_frames.push_back(reader.frame());
+    for (ToolSample s; reader.next(s);) {
+      log.push_back(s);
+      if (verbatim) sample_frames.push_back(reader.frame());
+    }
+    if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
     if (verbatim) {
       // The session's frames, also those after its last sample (the trailer a finished session
       // writes); a killed one's end with the frame of its last sample.

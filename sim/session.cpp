@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "sim/quantile.hpp"
 #include "sim/simulation.hpp"
 
 namespace scalpel {
@@ -88,9 +89,6 @@ std::vector<std::filesystem::path> Session::recordings() const {
 
 void Session::begin_attempt() {
   sim_ = std::make_unique<Simulation>(scenario_);
-  FrameSnapshot probe;
-  sim_->snapshot(probe);
-  surface_z_ = probe.bounds_max.z();
   finish_recording();
   attempt_frames_ = 0;
   attempt_seconds_.clear();
@@ -130,15 +128,8 @@ void Session::publish_frame(double frame_seconds) {
   SessionStatus& s = f.status;
   s.time = sim_->time();
   s.frame_seconds = frame_seconds;
-  const std::size_t n = std::min(attempt_seconds_.size(), kFrameWindow);
-  s.frame_seconds_p99 = 0.0;
-  if (n > 0) {
-    std::vector<double> recent(attempt_seconds_.end() - static_cast<std::ptrdiff_t>(n),
-                               attempt_seconds_.end());
-    const auto at = recent.begin() + static_cast<std::ptrdiff_t>(std::min(n - 1, (n * 99) / 100));
-    std::nth_element(recent.begin(), at, recent.end());
-    s.frame_seconds_p99 = *at;
-  }
+  const auto n = static_cast<std::ptrdiff_t>(std::min(attempt_seconds_.size(), kFrameWindow));
+  s.frame_seconds_p99 = quantile({attempt_seconds_.end() - n, attempt_seconds_.end()}, 0.99);
   const HapticStats hs = loop_->stats();
   s.haptic_rate = hs.period_mean > 0 ? 1.0 / hs.period_mean : 0.0;
   s.haptic_jitter = hs.period_error_rms;
@@ -151,10 +142,16 @@ void Session::publish_frame(double frame_seconds) {
   s.playback_ended =
       playback_ && playback_->position() >= playback_->duration() && hs.samples_pushed == popped_;
   s.has_task = scenario_.task.has_value();
-  if (s.has_task) s.task = score_task(*scenario_.task, sim_->cutter().cut_points(), surface_z_);
+  // The skin's top: the highest rest point of the uncut mesh, as the report measures depth.
+  if (s.has_task)
+    s.task = score_task(*scenario_.task, sim_->cutter().cut_points(), f.snapshot.bounds_max.z());
   s.recorded = writer_ ? writer_->samples_written() : 0;
   frames_.publish();
   if (on_publish_) on_publish_();
+}
+
+void Session::drop_queued() {
+  for (ToolSample drop; queue_.pop(drop);) ++popped_;
 }
 
 void Session::sim_main() noexcept {
@@ -208,8 +205,7 @@ void Session::run_frames() {
         while (playback_->restarts() < request && Clock::now() < until)
           std::this_thread::sleep_for(std::chrono::microseconds(200));
       }
-      ToolSample drop;
-      while (queue_.pop(drop)) ++popped_;
+      drop_queued();
       resets_done_ = resets;
       begin_attempt();
       k = 0;
@@ -224,8 +220,7 @@ void Session::run_frames() {
     }
     if (paused()) {
       // Nothing moves; what the device sends meanwhile is not part of the attempt.
-      ToolSample drop;
-      while (queue_.pop(drop)) ++popped_;
+      drop_queued();
       anchored = false;
       publish_frame(0.0);
       std::this_thread::sleep_for(frame_duration);

@@ -58,7 +58,8 @@ struct SessionFrame {
 };
 
 struct SessionOptions {
-  std::filesystem::path record;  // pose log to write; empty: none. A reset starts a new file.
+  std::filesystem::path record;  // pose log to write; empty: none. Each attempt (a reset starts
+                                 // one) gets its own file, opened at its first sample.
   std::string device_name = "device";
   bool wireframe_edges = false;  // fill the snapshot's edges from the start
 };
@@ -112,6 +113,7 @@ class Session {
   void publish_frame(double frame_seconds);
   void record(const ToolSample& s, std::uint64_t frame);
   void finish_recording();
+  void drop_queued();  // samples the attempt does not take (paused, or from before a reset)
 
   Scenario scenario_;
   Device& device_;
@@ -136,7 +138,6 @@ class Session {
   std::vector<double> attempt_seconds_;  // this attempt's, for the overlay
   std::uint64_t attempt_frames_ = 0;
   std::string error_;  // guarded by failed_: written before it is set
-  double surface_z_ = 0.0;
   std::uint64_t last_not_ok_ = 0;
   std::uint64_t popped_ = 0;  // samples taken from the queue
   std::function<void()> on_publish_;

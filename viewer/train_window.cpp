@@ -18,6 +18,7 @@
 #include <string>
 #include <thread>
 
+#include "sim/quantile.hpp"
 #include "viewer/camera.hpp"
 #include "viewer/pictures.hpp"
 #include "viewer/renderer.hpp"
@@ -71,14 +72,6 @@ void on_scroll(GLFWwindow* window, double, double dy) {
 
 void on_glfw_error(int code, const char* description) {
   std::fprintf(stderr, "GLFW error %d: %s\n", code, description);
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const auto at =
-      v.begin() + static_cast<std::ptrdiff_t>(std::min(v.size() - 1, static_cast<std::size_t>(q * v.size())));
-  std::nth_element(v.begin(), at, v.end());
-  return *at;
 }
 
 // Owns GLFW and Dear ImGui for the window's lifetime.
@@ -325,14 +318,11 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     text_row("Haptic jitter (RMS)", "%.0f us", 1e6 * st.haptic_jitter);
     text_row("Simulation frame", "%.1f ms", 1e3 * st.frame_seconds);
     text_row("  p99 (last 256)", "%.1f ms", 1e3 * st.frame_seconds_p99);
+    const auto recent =
+        std::min<std::ptrdiff_t>(256, static_cast<std::ptrdiff_t>(result.render_seconds.size()));
     const double render_p99 =
-        result.render_seconds.size() > 10
-            ? percentile({result.render_seconds.end() -
-                              std::min<std::ptrdiff_t>(
-                                  256, static_cast<std::ptrdiff_t>(result.render_seconds.size())),
-                          result.render_seconds.end()},
-                         0.99)
-            : 0.0;
+        recent > 10 ? quantile({result.render_seconds.end() - recent, result.render_seconds.end()}, 0.99)
+                    : 0.0;
     text_row("Render frame p99", "%.1f ms", 1e3 * render_p99);
     ImGui::Text("Tetrahedra %zu, nodes %zu", f.snapshot.tetrahedra, f.snapshot.nodes);
     ImGui::TextDisabled("OpenGL: %s", renderer_name.c_str());
