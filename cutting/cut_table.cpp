@@ -6,7 +6,7 @@
 #include <map>
 #include <sstream>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "cutting/mesh.hpp"
 
 namespace scalpel {

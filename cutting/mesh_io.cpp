@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "cutting/predicates.hpp"
 #include "cutting/topology.hpp"
 

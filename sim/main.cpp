@@ -10,7 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "cutting/mesh_io.hpp"
 #include "cutting/quality.hpp"
 #include "cutting/validate.hpp"

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <optional>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "cutting/mesh_io.hpp"
 #include "cutting/quality.hpp"
 #include "cutting/topology.hpp"

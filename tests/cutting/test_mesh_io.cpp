@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "base/input_error.hpp"
 #include "cutting/generators.hpp"
-#include "cutting/input_error.hpp"
 #include "cutting/mesh.hpp"
 #include "cutting/mesh_io.hpp"
 #include "cutting/topology.hpp"

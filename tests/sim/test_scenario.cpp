@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "cutting/topology.hpp"
 #include "sim/scenario.hpp"
 

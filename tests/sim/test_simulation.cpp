@@ -4,7 +4,7 @@
 #include <memory>
 #include <random>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "cutting/topology.hpp"
 #include "cutting/validate.hpp"
 #include "sim/scenario.hpp"
