@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "base/input_error.hpp"
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

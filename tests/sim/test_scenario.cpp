@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "base/input_error.hpp"
-#include "cutting/topology.hpp"
+#include "mesh/topology.hpp"
 #include "sim/scenario.hpp"
 
 using namespace scalpel;

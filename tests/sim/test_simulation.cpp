@@ -5,8 +5,8 @@
 #include <random>
 
 #include "base/input_error.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 

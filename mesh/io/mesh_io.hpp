@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 
@@ -93,7 +93,7 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuData& data
 [[nodiscard]] std::string vtu_text(const TetMesh& mesh, const VtuData& data = {});
 
 // ---- boundary surface output ---------------------------------------------------------------------
-// The boundary faces (topology.hpp boundary_faces, outward-oriented triangles) at current positions;
+// The boundary faces (mesh/topology.hpp boundary_faces, outward-oriented triangles) at current positions;
 // vertices are the nodes on the boundary, numbered compactly in slot order.
 void write_boundary_obj(const TetMesh& mesh, const std::string& path);
 void write_boundary_ply(const TetMesh& mesh, const std::string& path);

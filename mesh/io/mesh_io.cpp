@@ -1,4 +1,4 @@
-#include "cutting/mesh_io.hpp"
+#include "mesh/io/mesh_io.hpp"
 
 #include <algorithm>
 #include <array>
@@ -13,8 +13,8 @@
 #include <utility>
 
 #include "base/input_error.hpp"
-#include "cutting/predicates.hpp"
-#include "cutting/topology.hpp"
+#include "mesh/predicates.hpp"
+#include "mesh/topology.hpp"
 
 namespace scalpel {
 
