@@ -7,6 +7,11 @@
 // orientation (exact orient3d) is re-oriented by swapping its last two vertices; a degenerate or
 // repeated-vertex tetrahedron is an InputError. Every malformed input throws InputError naming the
 // file, the line and the field.
+//
+// The one public header of mesh/io/. Each format has its own source (gmsh.cpp, tetgen.cpp, vtu.cpp,
+// obj.cpp, ply.cpp) over what they share: the text reader and its located errors (reader.hpp), the
+// XML tokenizer (xml.hpp), the text writer and the boundary surface (writer.hpp), and the TetMesh
+// built from a file's tetrahedra (raw_mesh.hpp).
 #pragma once
 
 #include <cstddef>
