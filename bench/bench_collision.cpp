@@ -12,7 +12,7 @@
 
 #include "cutting/blade_sweep.hpp"
 #include "cutting/cut_engine.hpp"
-#include "cutting/generators.hpp"
+#include "mesh/generators.hpp"
 
 using namespace scalpel;
 

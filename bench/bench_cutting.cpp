@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
-#include "cutting/generators.hpp"
+#include "mesh/generators.hpp"
 
 using namespace scalpel;
 

@@ -22,9 +22,9 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
-#include "cutting/generators.hpp"
 #include "fem/block_cholesky.hpp"
 #include "fem/tissue.hpp"
+#include "mesh/generators.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 

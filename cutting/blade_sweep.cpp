@@ -6,7 +6,7 @@
 
 #include <gmp.h>
 
-#include "cutting/predicates.hpp"
+#include "mesh/predicates.hpp"
 
 namespace scalpel {
 

@@ -14,7 +14,7 @@
 // parameter square: tri 0 to the corners (0,0), (1,0), (1,1); tri 1 to (0,0), (1,1), (0,1).
 //
 // Exactness and the degeneracy rule. Every crossing is decided by signs of orient3d (exact,
-// cutting/predicates.hpp), evaluated as if every MESH node were displaced by the infinitesimal
+// mesh/predicates.hpp), evaluated as if every MESH node were displaced by the infinitesimal
 //   delta = eps * e_x + eps^2 * e_y + eps^3 * e_z,   0 < eps -> 0,
 // (equivalently, the blade surface is displaced by -delta). orient3d is linear in each point, so a
 // zero determinant D is replaced by the sign of the first non-zero component (x, then y, then z)
@@ -41,7 +41,7 @@
 // Parameters and points are then computed in floating point from the same determinants and
 // clamped to their ranges: t is 0 or 1 only when the edge passes through an end node.
 //
-// Acceleration: a dynamic AABB tree over tetrahedra with fat boxes (cutting/bvh.hpp), refit as the
+// Acceleration: a dynamic AABB tree over tetrahedra with fat boxes (mesh/bvh.hpp), refit as the
 // mesh deforms and updated per tetrahedron as the cutter adds and removes them; a query visits the
 // tree nodes whose boxes touch the swept triangles, so a sweep costs what the blade touches.
 #pragma once
@@ -50,8 +50,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "cutting/bvh.hpp"
-#include "cutting/mesh.hpp"
+#include "mesh/bvh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -8,7 +8,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "cutting/validate.hpp"
+#include "mesh/validate.hpp"
 
 namespace scalpel {
 

@@ -53,7 +53,7 @@
 #include "cutting/blade_sweep.hpp"
 #include "cutting/cut_state.hpp"
 #include "cutting/cut_table.hpp"
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

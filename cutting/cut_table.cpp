@@ -6,8 +6,8 @@
 #include <map>
 #include <sstream>
 
-#include "cutting/input_error.hpp"
-#include "cutting/mesh.hpp"
+#include "base/input_error.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -6,7 +6,7 @@
 #include <hidapi/hidapi.h>
 #include <libusb-1.0/libusb.h>
 
-#include "devices/spsc_ring.hpp"
+#include "base/spsc_ring.hpp"
 
 namespace scalpel {
 

@@ -10,8 +10,8 @@
 
 #include <Eigen/Geometry>
 
+#include "base/triple_buffer.hpp"
 #include "devices/device.hpp"
-#include "devices/triple_buffer.hpp"
 
 namespace scalpel {
 

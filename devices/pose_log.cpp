@@ -6,7 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 
 namespace scalpel {
 

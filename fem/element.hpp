@@ -44,7 +44,7 @@
 // s E V/2 (n.eps.n)^2 (n its direction): its share depends on its direction only, and the volume
 // term stores kappa' V/2 tr(eps)^2. Springs are central forces, so their elasticity tensor obeys
 // the Cauchy relations; spread evenly over all directions they would give Young's modulus s E and
-// Poisson's ratio 1/4. The generated meshes (cutting/generators.cpp, 6 tetrahedra per cell) are
+// Poisson's ratio 1/4. The generated meshes (mesh/generators.cpp, 6 tetrahedra per cell) are
 // not: the Kuhn split of a cube has, per unit volume, the weights 1/2 on each axis, 1/3 on each of
 // the face diagonals (1,1,0), (0,1,1), (1,0,1) and 1/2 on the body diagonal (1,1,1), i.e. the energy
 // density s E [1/2 sum_i eps_ii^2 + 1/3 sum_f (n_f.eps.n_f)^2 + 1/2 (n_b.eps.n_b)^2]. Inverting
@@ -112,8 +112,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "cutting/mesh.hpp"
 #include "fem/material.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

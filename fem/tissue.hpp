@@ -73,11 +73,11 @@
 #include <string>
 #include <vector>
 
-#include "cutting/mesh.hpp"
 #include "fem/block_matrix.hpp"
 #include "fem/element.hpp"
 #include "fem/material.hpp"
 #include "fem/two_level.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -18,7 +18,7 @@
 
 #include <Eigen/Core>
 
-#include "devices/triple_buffer.hpp"
+#include "base/triple_buffer.hpp"
 
 namespace scalpel {
 

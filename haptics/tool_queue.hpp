@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "devices/spsc_ring.hpp"
+#include "base/spsc_ring.hpp"
 #include "devices/tool_sample.hpp"
 
 namespace scalpel {

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 
 namespace scalpel {
 

@@ -10,15 +10,15 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "cutting/input_error.hpp"
-#include "cutting/mesh_io.hpp"
-#include "cutting/quality.hpp"
-#include "cutting/validate.hpp"
+#include "base/input_error.hpp"
 #include "devices/device_profile.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/mock_device.hpp"
 #include "devices/pose_log.hpp"
 #include "haptics/recorder.hpp"
+#include "mesh/io/mesh_io.hpp"
+#include "mesh/quality.hpp"
+#include "mesh/validate.hpp"
 #include "sim/log_generator.hpp"
 #include "sim/quantile.hpp"
 #include "sim/replay.hpp"

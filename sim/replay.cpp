@@ -7,15 +7,15 @@
 #include <fstream>
 #include <optional>
 
-#include "cutting/input_error.hpp"
-#include "cutting/mesh_io.hpp"
-#include "cutting/quality.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "base/input_error.hpp"
 #include "devices/mock_device.hpp"
 #include "devices/pose_log.hpp"
 #include "haptics/haptic_loop.hpp"
 #include "haptics/tool_queue.hpp"
+#include "mesh/io/mesh_io.hpp"
+#include "mesh/quality.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 #include "sim/quantile.hpp"
 #include "sim/simulation.hpp"
 #include "sim/task_score.hpp"

@@ -14,7 +14,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 
 namespace scalpel {
 

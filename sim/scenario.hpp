@@ -14,10 +14,10 @@
 
 #include <Eigen/Geometry>
 
-#include "cutting/generators.hpp"
-#include "cutting/mesh.hpp"
 #include "fem/element.hpp"
 #include "fem/material.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -19,10 +19,10 @@
 #include <thread>
 #include <vector>
 
+#include "base/triple_buffer.hpp"
 #include "devices/device.hpp"
 #include "devices/playback_device.hpp"
 #include "devices/pose_log.hpp"
-#include "devices/triple_buffer.hpp"
 #include "haptics/force_model.hpp"
 #include "haptics/haptic_loop.hpp"
 #include "haptics/tool_queue.hpp"

@@ -22,11 +22,11 @@
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
-#include "cutting/mesh.hpp"
-#include "cutting/mesh_io.hpp"
 #include "devices/tool_sample.hpp"
 #include "fem/tissue.hpp"
 #include "haptics/force_model.hpp"
+#include "mesh/io/mesh_io.hpp"
+#include "mesh/mesh.hpp"
 #include "sim/scenario.hpp"
 #include "sim/snapshot.hpp"
 #include "sim/wound.hpp"

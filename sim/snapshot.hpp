@@ -13,7 +13,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

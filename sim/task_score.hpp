@@ -6,7 +6,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 #include "sim/scenario.hpp"
 
 namespace scalpel {

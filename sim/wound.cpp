@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "cutting/topology.hpp"
+#include "mesh/topology.hpp"
 
 namespace scalpel {
 

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -6,7 +6,7 @@
 
 #include <Eigen/Core>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

@@ -8,8 +8,8 @@
 #include <set>
 
 #include "cutting/blade_sweep.hpp"
-#include "cutting/generators.hpp"
-#include "cutting/predicates.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/predicates.hpp"
 
 using namespace scalpel;
 

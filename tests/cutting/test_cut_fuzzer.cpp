@@ -23,11 +23,11 @@
 #include <vector>
 
 #include "cutting/cut_engine.hpp"
-#include "cutting/generators.hpp"
-#include "cutting/mesh_io.hpp"
-#include "cutting/quality.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/io/mesh_io.hpp"
+#include "mesh/quality.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 #include "trajectory_support.hpp"
 
 using namespace scalpel;

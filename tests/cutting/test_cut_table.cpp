@@ -3,12 +3,12 @@
 #include <map>
 #include <set>
 
+#include "base/input_error.hpp"
 #include "cutting/cut_engine.hpp"
 #include "cutting/cut_table.hpp"
-#include "cutting/generators.hpp"
-#include "cutting/input_error.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 
 using namespace scalpel;
 

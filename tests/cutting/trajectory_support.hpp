@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <string>
 
-#include "cutting/mesh.hpp"
-#include "cutting/mesh_io.hpp"
-#include "cutting/quality.hpp"
+#include "mesh/io/mesh_io.hpp"
+#include "mesh/mesh.hpp"
+#include "mesh/quality.hpp"
 
 namespace scalpel::testing {
 

@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "devices/device_profile.hpp"
 #include "tests/devices/fake_transport.hpp"
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "devices/pose_log.hpp"
 
 using namespace scalpel;

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <limits>
 
-#include "cutting/generators.hpp"
 #include "fem/material.hpp"
 #include "fem/tissue.hpp"
+#include "mesh/generators.hpp"
 
 using namespace scalpel;
 

@@ -7,9 +7,9 @@
 #include <random>
 #include <utility>
 
-#include "cutting/generators.hpp"
-#include "cutting/validate.hpp"
 #include "fem/tissue.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/validate.hpp"
 
 using namespace scalpel;
 

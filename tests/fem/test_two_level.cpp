@@ -9,10 +9,10 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
-#include "cutting/generators.hpp"
 #include "fem/block_cholesky.hpp"
 #include "fem/element.hpp"
 #include "fem/two_level.hpp"
+#include "mesh/generators.hpp"
 
 using namespace scalpel;
 

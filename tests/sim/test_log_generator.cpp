@@ -8,7 +8,7 @@
 #include <numbers>
 #include <string>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "devices/pose_log.hpp"
 #include "sim/log_generator.hpp"
 #include "sim/scenario.hpp"

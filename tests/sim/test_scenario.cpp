@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "cutting/input_error.hpp"
-#include "cutting/topology.hpp"
+#include "base/input_error.hpp"
+#include "mesh/topology.hpp"
 #include "sim/scenario.hpp"
 
 using namespace scalpel;

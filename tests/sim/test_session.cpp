@@ -7,7 +7,7 @@
 #include <thread>
 #include <tuple>
 
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 #include "devices/playback_device.hpp"
 #include "devices/pose_log.hpp"
 #include "sim/replay.hpp"

@@ -4,9 +4,9 @@
 #include <memory>
 #include <random>
 
-#include "cutting/input_error.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "base/input_error.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 

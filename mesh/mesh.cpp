@@ -1,4 +1,4 @@
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 #include <algorithm>
 #include <stdexcept>

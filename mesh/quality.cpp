@@ -1,11 +1,11 @@
-#include "cutting/quality.hpp"
+#include "mesh/quality.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
 
-#include "cutting/topology.hpp"
+#include "mesh/topology.hpp"
 
 namespace scalpel {
 

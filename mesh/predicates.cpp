@@ -1,4 +1,4 @@
-#include "cutting/predicates.hpp"
+#include "mesh/predicates.hpp"
 
 #include <atomic>
 #include <cmath>

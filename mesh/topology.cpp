@@ -1,4 +1,4 @@
-#include "cutting/topology.hpp"
+#include "mesh/topology.hpp"
 
 #include <numeric>
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <random>
 
-#include "cutting/bvh.hpp"
+#include "mesh/bvh.hpp"
 
 using namespace scalpel;
 

@@ -3,7 +3,7 @@
 #include <atomic>
 #include <thread>
 
-#include "devices/triple_buffer.hpp"
+#include "base/triple_buffer.hpp"
 
 using namespace scalpel;
 

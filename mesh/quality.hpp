@@ -3,8 +3,8 @@
 
 #include <cstddef>
 
-#include "cutting/mesh.hpp"
-#include "cutting/validate.hpp"
+#include "mesh/mesh.hpp"
+#include "mesh/validate.hpp"
 
 namespace scalpel {
 

@@ -7,6 +7,11 @@
 // orientation (exact orient3d) is re-oriented by swapping its last two vertices; a degenerate or
 // repeated-vertex tetrahedron is an InputError. Every malformed input throws InputError naming the
 // file, the line and the field.
+//
+// The one public header of mesh/io/. Each format has its own source (gmsh.cpp, tetgen.cpp, vtu.cpp,
+// obj.cpp, ply.cpp) over what they share: the text reader and its located errors (reader.hpp), the
+// XML tokenizer (xml.hpp), the text writer and the boundary surface (writer.hpp), and the TetMesh
+// built from a file's tetrahedra (raw_mesh.hpp).
 #pragma once
 
 #include <cstddef>
@@ -15,7 +20,7 @@
 #include <string_view>
 #include <vector>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 
@@ -93,7 +98,7 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuData& data
 [[nodiscard]] std::string vtu_text(const TetMesh& mesh, const VtuData& data = {});
 
 // ---- boundary surface output ---------------------------------------------------------------------
-// The boundary faces (topology.hpp boundary_faces, outward-oriented triangles) at current positions;
+// The boundary faces (mesh/topology.hpp boundary_faces, outward-oriented triangles) at current positions;
 // vertices are the nodes on the boundary, numbered compactly in slot order.
 void write_boundary_obj(const TetMesh& mesh, const std::string& path);
 void write_boundary_ply(const TetMesh& mesh, const std::string& path);

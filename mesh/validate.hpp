@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

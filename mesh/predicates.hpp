@@ -6,7 +6,7 @@
 // always that of the exact determinant of the given doubles.
 #pragma once
 
-#include "cutting/mesh.hpp"
+#include "mesh/mesh.hpp"
 
 namespace scalpel {
 

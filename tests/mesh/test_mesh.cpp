@@ -1,10 +1,10 @@
 #include <doctest/doctest.h>
 
-#include "cutting/generators.hpp"
-#include "cutting/mesh.hpp"
-#include "cutting/predicates.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/mesh.hpp"
+#include "mesh/predicates.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 
 using namespace scalpel;
 

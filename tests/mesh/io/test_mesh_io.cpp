@@ -10,12 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "cutting/generators.hpp"
-#include "cutting/input_error.hpp"
-#include "cutting/mesh.hpp"
-#include "cutting/mesh_io.hpp"
-#include "cutting/topology.hpp"
-#include "cutting/validate.hpp"
+#include "base/input_error.hpp"
+#include "mesh/generators.hpp"
+#include "mesh/io/mesh_io.hpp"
+#include "mesh/mesh.hpp"
+#include "mesh/topology.hpp"
+#include "mesh/validate.hpp"
 
 using namespace scalpel;
 

@@ -1,4 +1,4 @@
-#include "cutting/generators.hpp"
+#include "mesh/generators.hpp"
 
 #include <stdexcept>
 

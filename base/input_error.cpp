@@ -1,4 +1,4 @@
-#include "cutting/input_error.hpp"
+#include "base/input_error.hpp"
 
 namespace scalpel {
 

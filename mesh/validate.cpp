@@ -1,4 +1,4 @@
-#include "cutting/validate.hpp"
+#include "mesh/validate.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <sstream>
 #include <unordered_map>
 
-#include "cutting/predicates.hpp"
-#include "cutting/topology.hpp"
+#include "mesh/predicates.hpp"
+#include "mesh/topology.hpp"
 
 namespace scalpel {
 

@@ -1,4 +1,4 @@
-#include "cutting/bvh.hpp"
+#include "mesh/bvh.hpp"
 
 #include <algorithm>
 #include <cstdlib>
