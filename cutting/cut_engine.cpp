@@ -1011,7 +1011,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   for (const Key3& k : crossing_now)
     if (cut_nodes_[mid_nodes_.at(k)].crossing) crossing_faces_.insert(k);
 
-  // Tremble at faces (§5.1, the dotted transitions O1->O3, O2->O1, A2->A1, B2->B1, F2->F1): a tip
+  // Tremble at faces (§5.1, the dotted transitions O1->O0, O2->O1, A2->A1, B2->B1): a tip
   // that leaves by the face it entered before any edge of that face is cut undoes the face's
   // subdivision.
   for (const Key3& k : tip_left) {

@@ -28,8 +28,16 @@ TEST_CASE("orient3d is exact on nearly coplanar points") {
   // Points on a line through large coordinates: the float determinant is pure rounding noise.
   const Vec3 p(1e15, 1e15, 1e15);
   CHECK(orient3d(p, p + Vec3(1, 1, 0), p + Vec3(2, 2, 0), p + Vec3(0.5, 0.25, 3)) == 0);
-  CHECK(orient3d(Vec3(0.1, 0.2, 0.3), Vec3(0.4, 0.5, 0.6), Vec3(0.7, 0.8, 0.9), Vec3(0.3, 0.1, 0.7)) ==
-        orient3d(Vec3(0.1, 0.2, 0.3), Vec3(0.4, 0.5, 0.6), Vec3(0.7, 0.8, 0.9), Vec3(0.3, 0.1, 0.7)));
+  // Three points collinear in decimal but not as doubles: the float filter cannot decide, and the
+  // exact sign must change with the parity of any reordering of the four points.
+  const Vec3 q0(0.1, 0.2, 0.3), q1(0.4, 0.5, 0.6), q2(0.7, 0.8, 0.9), q3(0.3, 0.1, 0.7);
+  const unsigned long long exact_before = orient3d_exact_fallbacks();
+  const int s = orient3d(q0, q1, q2, q3);
+  CHECK(orient3d_exact_fallbacks() > exact_before);
+  CHECK(orient3d(q1, q0, q2, q3) == -s);
+  CHECK(orient3d(q1, q2, q0, q3) == s);
+  CHECK(orient3d(q0, q1, q3, q2) == -s);
+  CHECK(orient3d(q3, q2, q1, q0) == s);
 }
 
 TEST_CASE("handles detect reuse of a freed slot") {
