@@ -77,6 +77,16 @@ struct GmshElements {
   std::size_t skipped = 0;
 };
 
+// The four node tags that end a tetrahedron's line, with its physical tag and line number.
+void read_tet_nodes(LineReader& r, int physical, GmshElements& el) {
+  std::array<long long, 4> v{};
+  for (auto& n : v) n = r.read_int("element node");
+  r.expect_line_end("element (a tetrahedron has 4 nodes)");
+  el.tets.push_back(v);
+  el.tags.push_back(physical);
+  el.lines.push_back(r.line_no());
+}
+
 struct GmshNodes {
   std::vector<long long> tags;
   std::vector<Vec3> points;
@@ -162,12 +172,7 @@ void read_elements_v2(LineReader& r, GmshElements& el) {
       const long long tag = r.read_int("element tag list", -kMaxCount, kMaxCount);
       if (k == 0) physical = static_cast<int>(tag);  // the first tag is the physical entity
     }
-    std::array<long long, 4> v{};
-    for (auto& n : v) n = r.read_int("element node");
-    r.expect_line_end("element (a tetrahedron has 4 nodes)");
-    el.tets.push_back(v);
-    el.tags.push_back(physical);
-    el.lines.push_back(r.line_no());
+    read_tet_nodes(r, physical, el);
   }
   expect_end(r, "Elements", "$Elements count", "elements");
 }
@@ -282,12 +287,7 @@ void read_elements_v41(LineReader& r, const std::map<int, int>* volume_physical,
         continue;
       }
       (void)r.read_int("element tag", 1, kMaxCount * 4);
-      std::array<long long, 4> v{};
-      for (auto& x : v) x = r.read_int("element node");
-      r.expect_line_end("element (a tetrahedron has 4 nodes)");
-      el.tets.push_back(v);
-      el.tags.push_back(physical);
-      el.lines.push_back(r.line_no());
+      read_tet_nodes(r, physical, el);
     }
   }
   if (total != count)
