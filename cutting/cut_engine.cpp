@@ -483,14 +483,28 @@ void CutEngine::subdivide(std::uint32_t t, std::vector<std::array<GNode, 4>>& ou
   }
 }
 
+// A sub-tetrahedron face on the cut surface: three cut nodes, none crossed only by the blunt side.
+// Faces with an entry node are the strip between the tip's path and the cut above it: without them
+// the crack would end at the mid nodes half a face above the tip (§4.1, the cut surface reaches the
+// tool). Entry nodes themselves never open (the surface ends there), and such a face must lie on one
+// stroke's surface: an entry node beside a node of an earlier cut joins two surfaces that meet there
+// only, and would free a chip neither encloses.
 bool CutEngine::is_crack_face(GNode a, GNode b, GNode c) const {
+  const CutNode* entry = nullptr;
+  for (const GNode g : {a, b, c}) {
+    if (!(g & kCutBit)) return false;
+    const CutNode& n = cut_nodes_[static_cast<std::uint32_t>(g & ~kCutBit)];
+    if (n.registered) return false;
+    if (n.kind == CutNode::Kind::Entry) entry = &n;
+  }
+  if (entry == nullptr) return true;
   for (const GNode g : {a, b, c})
-    if (!(g & kCutBit) || !opens(static_cast<std::uint32_t>(g & ~kCutBit))) return false;
+    if (cut_nodes_[static_cast<std::uint32_t>(g & ~kCutBit)].stroke != entry->stroke) return false;
   return true;
 }
 
-// Entry nodes lie on the tip's path and registered edge nodes were crossed only by the blunt side:
-// neither ever separates.
+// Entry nodes lie on the tip's path, where the cut surface ends, and registered edge nodes were
+// crossed only by the blunt side: neither ever separates.
 bool CutEngine::opens(std::uint32_t id) const {
   const CutNode& n = cut_nodes_[id];
   return n.kind != CutNode::Kind::Entry && !n.registered;
