@@ -147,7 +147,7 @@ OpenedCrack opened_crack(const TetMesh& m) {
 // the crack ended at the mid nodes half a face above the tip: 87-96 % of the swept area, the deepest
 // opened point 0.04-0.22 of a cell above the tip.
 TEST_CASE("a partial-depth incision opens the swept area down to the tip's path") {
-  const double h = 0.25;  // 4 cells
+  const double h = 0.25;                 // 4 cells
   for (const double end : {0.7, 1.3}) {  // the blade stops inside the box, or leaves it
     for (const double tip : {0.26, 0.3, 0.35, 0.4, 0.45}) {
       for (const double tilt : {0.0, 0.3}) {
@@ -157,7 +157,9 @@ TEST_CASE("a partial-depth incision opens the swept area down to the tip's path"
         TetMesh mesh = make_box({.cells = {4, 4, 4}});
         CutEngine cutter(mesh);
         const double x = 0.37, top = 1.6;
-        auto blade = [&](double y) { return BladePose{Vec3(x + tilt, y, top), Vec3(x, y, tip), Vec3(0, 1, 0)}; };
+        auto blade = [&](double y) {
+          return BladePose{Vec3(x + tilt, y, top), Vec3(x, y, tip), Vec3(0, 1, 0)};
+        };
         cutter.place(blade(-0.3));
         const int n = static_cast<int>(std::lround((end + 0.3) * 1600));
         for (int k = 1; k <= n; ++k) cutter.step(blade(-0.3 + (end + 0.3) * k / n));
