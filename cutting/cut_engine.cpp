@@ -70,6 +70,7 @@ void CutTotals::add(const CutStepStats& s) {
   recursion_fallbacks += s.recursion_fallbacks;
   stroke_recursions += s.stroke_recursions;
   sealed_events += s.sealed_events;
+  final_pierces += s.final_pierces;
   max_recursion_depth = std::max(max_recursion_depth, s.recursion_depth);
   tets_created += s.tets_created;
   tets_removed += s.tets_removed;
@@ -501,6 +502,19 @@ bool CutEngine::is_crack_face(GNode a, GNode b, GNode c) const {
   for (const GNode g : {a, b, c})
     if (cut_nodes_[static_cast<std::uint32_t>(g & ~kCutBit)].stroke != entry->stroke) return false;
   return true;
+}
+
+// A unit whose cut is final: in an end state (§4.4, the blade has left it) with every cut node that
+// opens opened. A unit where the cut ends inside (a node still closed) is the cut's open end, which
+// a later stroke continues (Fig. 12).
+bool CutEngine::into_final(const std::array<std::uint32_t, 3>& face) const {
+  for (const std::uint32_t t : coarse_tets_around(face)) {
+    const auto it = cut_tets_.find(t);
+    if (it != cut_tets_.end() && it->second.complete &&
+        !it->second.any_cut_node([&](std::uint32_t id) { return opens(id) && !cut_nodes_[id].opened; }))
+      return true;
+  }
+  return false;
 }
 
 // Entry nodes lie on the tip's path, where the cut surface ends, and registered edge nodes were
@@ -975,6 +989,13 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     const std::uint32_t mid = face_node(mid_nodes_, k);
     if (mid != kInvalidIndex && cut_nodes_[mid].opened) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
+      continue;
+    }
+    // The tip entering a unit whose cut is final (§4.4): its entry node, split first by the
+    // program, would run that unit's subdivision again from a state whose crack faces need not
+    // hold the lips it has opened, and join them again. The end state is terminal for the tip.
+    if (into_final(k)) {
+      ++stats.final_pierces;
       continue;
     }
     const Vec3 w = clamp_interior(face_bary(k, point), options_.min_face_bary);

@@ -135,6 +135,7 @@ struct CutStepStats {
   std::size_t recursion_fallbacks = 0;  // components at the depth bound that kept their subdivision
   std::size_t stroke_recursions = 0;    // of `recursions`: the part the stroke has left, within a stroke
   std::size_t sealed_events = 0;        // crossings of a sealed face or edge, ignored (§6 fallback)
+  std::size_t final_pierces = 0;        // tip pierces into a unit whose cut is final, ignored (§4.4)
   int recursion_depth = 0;              // deepest level of the units created this step
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
@@ -148,7 +149,7 @@ struct CutTotals {
   std::size_t edges_cut = 0, backward_crossings = 0, replaced_crossings = 0, recrossed_edges = 0,
               recrossed_faces = 0, face_pierces = 0, undone_faces = 0;
   std::size_t recursions = 0, promoted_tets = 0, recursion_fallbacks = 0, stroke_recursions = 0,
-              sealed_events = 0;
+              sealed_events = 0, final_pierces = 0;
   int max_recursion_depth = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
@@ -263,6 +264,8 @@ class CutEngine {
   };
   std::vector<CrackFace> crack_faces(const std::vector<std::uint32_t>& units) const;
   bool opens(std::uint32_t cut_id) const;
+  // Whether a unit holding `face` is in an end state whose crack has opened wherever it can (§4.4).
+  bool into_final(const std::array<std::uint32_t, 3>& face) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
   std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
 
