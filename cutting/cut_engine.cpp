@@ -875,6 +875,66 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
 }
 
 CutStepStats CutEngine::step(const BladePose& pose) {
+  return sweep_to(pose, true);
+}
+
+// The blade's motion through the tissue is what cuts (§3). Between two tool samples the tissue
+// model moves the tissue under a blade that stands still: dragged along by the blade's resistance,
+// springing back, gaping. Tissue that moved into the sharp edge must be cut as if the edge had moved
+// into it, or a blade lifted out of skin it had dragged along leaves the lips joined. The tissue's
+// displacement under the blade is taken at points along its part inside the tissue, from the units
+// holding them before the move, and averaged: a translation, since the tissue turns little under the
+// blade within one tissue step. Only its part against the sharp edge counts (the cutting direction,
+// or the blade's last motion across itself): tissue pressed against the flat of the blade, or
+// sliding along it, is pushed, not cut (Eq. 1).
+CutStepStats CutEngine::follow_tissue() {
+  Vec3 moved = Vec3::Zero();
+  int inside = 0;
+  if (placed_) {
+    const auto& before = coarse_.positions();
+    const auto& after = mesh_.positions();
+    constexpr int kPoints = 16;
+    std::vector<std::int32_t> stack;
+    for (int k = 0; k <= kPoints; ++k) {
+      const Vec3 p = blade_.back + (blade_.tip - blade_.back) * (static_cast<double>(k) / kPoints);
+      bool found = false;
+      sweep_->tree().query(
+          [&](const Aabb& box) {
+            return !found && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
+          },
+          [&](std::uint32_t unit) {
+            if (found || !coarse_.tet_slot_alive(unit)) return;
+            const auto& v = coarse_.tet_vertex_indices(unit);
+            const std::array<Vec3, 4> x{before[v[0]], before[v[1]], before[v[2]], before[v[3]]};
+            const double whole = signed_volume(x[0], x[1], x[2], x[3]);
+            if (!(whole > 0.0)) return;
+            std::array<double, 4> w{};
+            for (std::size_t i = 0; i < 4; ++i) {
+              std::array<Vec3, 4> y = x;
+              y[i] = p;
+              w[i] = signed_volume(y[0], y[1], y[2], y[3]) / whole;
+              if (w[i] < 0.0) return;
+            }
+            for (std::size_t i = 0; i < 4; ++i) moved += w[i] * (after[v[i]] - before[v[i]]);
+            found = true;
+          },
+          stack);
+      inside += found ? 1 : 0;
+    }
+  }
+  refit();
+  changes_.clear();
+  const Vec3 edge = blade_.cutting_direction.squaredNorm() > 0 ? blade_.cutting_direction : heading_;
+  // How far the blade went into the tissue along its edge, relative to the tissue.
+  const double into = inside > 0 ? -moved.dot(edge) / inside : 0.0;
+  if (!(into > 0.0)) return {};
+  const BladePose pose = blade_;
+  blade_.back -= into * edge;
+  blade_.tip -= into * edge;
+  return sweep_to(pose, false);
+}
+
+CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
   CutStepStats stats;
   changes_.clear();
   if (!placed_) {
@@ -885,7 +945,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   const BladePose prev = blade_;
   sweep_->sweep(prev, pose, sweep_result_);
   if (sweep_result_.tets.empty()) {
-    in_contact_ = false;
+    if (tool_moved) in_contact_ = false;  // the tissue moving off the blade does not end a stroke
   } else if (!in_contact_) {
     in_contact_ = true;
     ++stroke_;
@@ -899,8 +959,14 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     if (units.empty() || !promote(units, refused, stats)) break;
     sweep_->sweep(prev, pose, sweep_result_);
   }
+  if (tool_moved) {
+    ++step_count_;  // steps count tool samples (CutOptions::finished_after_steps)
+    const Vec3 along = (pose.tip - pose.back).normalized();
+    Vec3 across = (pose.tip + pose.back - prev.tip - prev.back) / 2;
+    across -= across.dot(along) * along;
+    if (across.squaredNorm() > 0 && along.allFinite()) heading_ = across.normalized();
+  }
   blade_ = pose;
-  ++step_count_;
   for (const std::uint32_t t : sweep_result_.tets) last_touch_[t] = step_count_;
   stats.tets_touched = sweep_result_.tets.size();
 
