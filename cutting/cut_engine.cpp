@@ -70,6 +70,7 @@ void CutTotals::add(const CutStepStats& s) {
   recursion_fallbacks += s.recursion_fallbacks;
   stroke_recursions += s.stroke_recursions;
   sealed_events += s.sealed_events;
+  final_pierces += s.final_pierces;
   max_recursion_depth = std::max(max_recursion_depth, s.recursion_depth);
   tets_created += s.tets_created;
   tets_removed += s.tets_removed;
@@ -483,14 +484,41 @@ void CutEngine::subdivide(std::uint32_t t, std::vector<std::array<GNode, 4>>& ou
   }
 }
 
+// A sub-tetrahedron face on the cut surface: three cut nodes, none crossed only by the blunt side.
+// Faces with an entry node are the strip between the tip's path and the cut above it: without them
+// the crack would end at the mid nodes half a face above the tip (§4.1, the cut surface reaches the
+// tool). Entry nodes themselves never open (the surface ends there), and such a face must lie on one
+// stroke's surface: an entry node beside a node of an earlier cut joins two surfaces that meet there
+// only, and would free a chip neither encloses.
 bool CutEngine::is_crack_face(GNode a, GNode b, GNode c) const {
+  const CutNode* entry = nullptr;
+  for (const GNode g : {a, b, c}) {
+    if (!(g & kCutBit)) return false;
+    const CutNode& n = cut_nodes_[static_cast<std::uint32_t>(g & ~kCutBit)];
+    if (n.registered) return false;
+    if (n.kind == CutNode::Kind::Entry) entry = &n;
+  }
+  if (entry == nullptr) return true;
   for (const GNode g : {a, b, c})
-    if (!(g & kCutBit) || !opens(static_cast<std::uint32_t>(g & ~kCutBit))) return false;
+    if (cut_nodes_[static_cast<std::uint32_t>(g & ~kCutBit)].stroke != entry->stroke) return false;
   return true;
 }
 
-// Entry nodes lie on the tip's path and registered edge nodes were crossed only by the blunt side:
-// neither ever separates.
+// A unit whose cut is final: in an end state (§4.4, the blade has left it) with every cut node that
+// opens opened. A unit where the cut ends inside (a node still closed) is the cut's open end, which
+// a later stroke continues (Fig. 12).
+bool CutEngine::into_final(const std::array<std::uint32_t, 3>& face) const {
+  for (const std::uint32_t t : coarse_tets_around(face)) {
+    const auto it = cut_tets_.find(t);
+    if (it != cut_tets_.end() && it->second.complete &&
+        !it->second.any_cut_node([&](std::uint32_t id) { return opens(id) && !cut_nodes_[id].opened; }))
+      return true;
+  }
+  return false;
+}
+
+// Entry nodes lie on the tip's path, where the cut surface ends, and registered edge nodes were
+// crossed only by the blunt side: neither ever separates.
 bool CutEngine::opens(std::uint32_t id) const {
   const CutNode& n = cut_nodes_[id];
   return n.kind != CutNode::Kind::Entry && !n.registered;
@@ -847,6 +875,66 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
 }
 
 CutStepStats CutEngine::step(const BladePose& pose) {
+  return sweep_to(pose, true);
+}
+
+// The blade's motion through the tissue is what cuts (§3). Between two tool samples the tissue
+// model moves the tissue under a blade that stands still: dragged along by the blade's resistance,
+// springing back, gaping. Tissue that moved into the sharp edge must be cut as if the edge had moved
+// into it, or a blade lifted out of skin it had dragged along leaves the lips joined. The tissue's
+// displacement under the blade is taken at points along its part inside the tissue, from the units
+// holding them before the move, and averaged: a translation, since the tissue turns little under the
+// blade within one tissue step. Only its part against the sharp edge counts (the cutting direction,
+// or the blade's last motion across itself): tissue pressed against the flat of the blade, or
+// sliding along it, is pushed, not cut (Eq. 1).
+CutStepStats CutEngine::follow_tissue() {
+  Vec3 moved = Vec3::Zero();
+  int inside = 0;
+  if (placed_) {
+    const auto& before = coarse_.positions();
+    const auto& after = mesh_.positions();
+    constexpr int kPoints = 16;
+    std::vector<std::int32_t> stack;
+    for (int k = 0; k <= kPoints; ++k) {
+      const Vec3 p = blade_.back + (blade_.tip - blade_.back) * (static_cast<double>(k) / kPoints);
+      bool found = false;
+      sweep_->tree().query(
+          [&](const Aabb& box) {
+            return !found && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
+          },
+          [&](std::uint32_t unit) {
+            if (found || !coarse_.tet_slot_alive(unit)) return;
+            const auto& v = coarse_.tet_vertex_indices(unit);
+            const std::array<Vec3, 4> x{before[v[0]], before[v[1]], before[v[2]], before[v[3]]};
+            const double whole = signed_volume(x[0], x[1], x[2], x[3]);
+            if (!(whole > 0.0)) return;
+            std::array<double, 4> w{};
+            for (std::size_t i = 0; i < 4; ++i) {
+              std::array<Vec3, 4> y = x;
+              y[i] = p;
+              w[i] = signed_volume(y[0], y[1], y[2], y[3]) / whole;
+              if (w[i] < 0.0) return;
+            }
+            for (std::size_t i = 0; i < 4; ++i) moved += w[i] * (after[v[i]] - before[v[i]]);
+            found = true;
+          },
+          stack);
+      inside += found ? 1 : 0;
+    }
+  }
+  refit();
+  changes_.clear();
+  const Vec3 edge = blade_.cutting_direction.squaredNorm() > 0 ? blade_.cutting_direction : heading_;
+  // How far the blade went into the tissue along its edge, relative to the tissue.
+  const double into = inside > 0 ? -moved.dot(edge) / inside : 0.0;
+  if (!(into > 0.0)) return {};
+  const BladePose pose = blade_;
+  blade_.back -= into * edge;
+  blade_.tip -= into * edge;
+  return sweep_to(pose, false);
+}
+
+CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
   CutStepStats stats;
   changes_.clear();
   if (!placed_) {
@@ -857,7 +945,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   const BladePose prev = blade_;
   sweep_->sweep(prev, pose, sweep_result_);
   if (sweep_result_.tets.empty()) {
-    in_contact_ = false;
+    if (tool_moved) in_contact_ = false;  // the tissue moving off the blade does not end a stroke
   } else if (!in_contact_) {
     in_contact_ = true;
     ++stroke_;
@@ -871,8 +959,14 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     if (units.empty() || !promote(units, refused, stats)) break;
     sweep_->sweep(prev, pose, sweep_result_);
   }
+  if (tool_moved) {
+    ++step_count_;  // steps count tool samples (CutOptions::finished_after_steps)
+    const Vec3 along = (pose.tip - pose.back).normalized();
+    Vec3 across = (pose.tip + pose.back - prev.tip - prev.back) / 2;
+    across -= across.dot(along) * along;
+    if (across.squaredNorm() > 0 && along.allFinite()) heading_ = across.normalized();
+  }
   blade_ = pose;
-  ++step_count_;
   for (const std::uint32_t t : sweep_result_.tets) last_touch_[t] = step_count_;
   stats.tets_touched = sweep_result_.tets.size();
 
@@ -961,6 +1055,13 @@ CutStepStats CutEngine::step(const BladePose& pose) {
     const std::uint32_t mid = face_node(mid_nodes_, k);
     if (mid != kInvalidIndex && cut_nodes_[mid].opened) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
+      continue;
+    }
+    // The tip entering a unit whose cut is final (§4.4): its entry node, split first by the
+    // program, would run that unit's subdivision again from a state whose crack faces need not
+    // hold the lips it has opened, and join them again. The end state is terminal for the tip.
+    if (into_final(k)) {
+      ++stats.final_pierces;
       continue;
     }
     const Vec3 w = clamp_interior(face_bary(k, point), options_.min_face_bary);

@@ -135,6 +135,7 @@ struct CutStepStats {
   std::size_t recursion_fallbacks = 0;  // components at the depth bound that kept their subdivision
   std::size_t stroke_recursions = 0;    // of `recursions`: the part the stroke has left, within a stroke
   std::size_t sealed_events = 0;        // crossings of a sealed face or edge, ignored (§6 fallback)
+  std::size_t final_pierces = 0;        // tip pierces into a unit whose cut is final, ignored (§4.4)
   int recursion_depth = 0;              // deepest level of the units created this step
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
@@ -148,7 +149,7 @@ struct CutTotals {
   std::size_t edges_cut = 0, backward_crossings = 0, replaced_crossings = 0, recrossed_edges = 0,
               recrossed_faces = 0, face_pierces = 0, undone_faces = 0;
   std::size_t recursions = 0, promoted_tets = 0, recursion_fallbacks = 0, stroke_recursions = 0,
-              sealed_events = 0;
+              sealed_events = 0, final_pierces = 0;
   int max_recursion_depth = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
@@ -175,6 +176,10 @@ class CutEngine {
   CutStepStats impose(std::uint32_t coarse_slot, const CutTopology& local, bool complete);
   // Call after the tissue model moved nodes: refits the collision structure to current positions.
   void refit();
+  // Call instead of refit() after the tissue model moved nodes under the blade: refits, and cuts
+  // what moved into the blade's edge (the blade's motion relative to the tissue, see the source).
+  // changes() then holds what it changed. Within the stroke; not a tool sample.
+  CutStepStats follow_tissue();
 
   [[nodiscard]] const CutTotals& totals() const { return totals_; }
   [[nodiscard]] const TetMesh& coarse() const { return coarse_; }
@@ -231,6 +236,9 @@ class CutEngine {
   using GNode = std::uint64_t;  // corner: node slot; cut node: kCutBit | cut node index
   static constexpr GNode kCutBit = GNode{1} << 63;
 
+  // Sweeps the blade from its last pose to `pose` and applies every event; `tool_moved`: a tool
+  // sample (false: the tissue moved under the blade).
+  CutStepStats sweep_to(const BladePose& pose, bool tool_moved);
   std::uint32_t edge_node(std::uint32_t a, std::uint32_t b) const;
   std::uint32_t face_node(const std::map<std::array<std::uint32_t, 3>, std::uint32_t>& map,
                           const std::array<std::uint32_t, 3>& key) const;
@@ -263,6 +271,8 @@ class CutEngine {
   };
   std::vector<CrackFace> crack_faces(const std::vector<std::uint32_t>& units) const;
   bool opens(std::uint32_t cut_id) const;
+  // Whether a unit holding `face` is in an end state whose crack has opened wherever it can (§4.4).
+  bool into_final(const std::array<std::uint32_t, 3>& face) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
   std::vector<std::array<std::uint32_t, 3>> faces_around_edge(const std::array<std::uint32_t, 3>& key) const;
 
@@ -319,8 +329,9 @@ class CutEngine {
   std::vector<std::uint32_t> unit_live_;
   std::vector<std::uint64_t> last_touch_;  // by unit slot: the last step whose sweep touched it
   std::uint64_t step_count_ = 0, stroke_start_ = 0;
-  std::uint64_t stroke_ = 0;  // the current stroke (see CutOptions::earlier_cut_angle_deg)
-  bool in_contact_ = false;   // the last sweep touched the tissue: the stroke goes on
+  std::uint64_t stroke_ = 0;     // the current stroke (see CutOptions::earlier_cut_angle_deg)
+  bool in_contact_ = false;      // the last sweep touched the tissue: the stroke goes on
+  Vec3 heading_ = Vec3::Zero();  // the blade's last motion across itself, unit (follow_tissue())
   std::vector<std::uint8_t> level_;
   std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction
   // Crack faces of promoted components (one side's real nodes), for the cut-surface area.

@@ -261,6 +261,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                        {"recursive_continuations", totals.recursions},
                        {"recursive_continuations_within_stroke", totals.stroke_recursions},
                        {"sealed_crossings", totals.sealed_events},
+                       {"final_pierces", totals.final_pierces},
                        {"tetrahedra_promoted", totals.promoted_tets},
                        {"max_recursion_depth", totals.max_recursion_depth},
                        {"recursion_fallbacks", totals.recursion_fallbacks},

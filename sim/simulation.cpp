@@ -68,8 +68,14 @@ void Simulation::on_sample(const ToolSample& s) {
   const auto start = std::chrono::steady_clock::now();
   cutter_->step(blade(s));
   cut_seconds_.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  // Topology changes go to the tissue model. Elements around a mid node that slid with the blade
-  // changed their rest shape: they are handed over as removed and added again.
+  hand_over_cut();
+  last_ = s;
+  ++samples_;
+}
+
+// Topology changes go to the tissue model. Elements around a mid node that slid with the blade
+// changed their rest shape: they are handed over as removed and added again.
+void Simulation::hand_over_cut() {
   const CutChanges& c = cutter_->changes();
   std::vector<std::uint32_t> removed = c.removed_tets;
   std::vector<TetId> added = c.added_tets;
@@ -84,8 +90,6 @@ void Simulation::on_sample(const ToolSample& s) {
   if (!added.empty()) tissue_->on_tets_added(added);
   topology_changed_ = topology_changed_ || !c.added_nodes.empty() || !removed.empty() || !added.empty();
   pieces_changed_ = pieces_changed_ || topology_changed_;
-  last_ = s;
-  ++samples_;
 }
 
 void Simulation::push_tissue() {
@@ -183,7 +187,9 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     topology_changed_ = false;
     tissue_time_ += dt;
   }
-  cutter_->refit();
+  // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue).
+  cutter_->follow_tissue();
+  hand_over_cut();
   // The force model the haptic loop renders until the next frame: the resistance of the blade's
   // edge inside the tissue (see simulation.hpp). The coupling spring is off (k_c = 0).
   ForceModel model;

@@ -113,6 +113,8 @@ class Simulation {
  private:
   // Sets the tissue's external forces from the blade's motion over the frame (see above).
   void push_tissue();
+  // Hands the cutter's last changes to the tissue model.
+  void hand_over_cut();
   // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).
   void hold_severed_pieces(double t);
 

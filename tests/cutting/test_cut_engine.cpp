@@ -113,6 +113,77 @@ TEST_CASE("the cut surface opens behind the blade at every step (invariant 6)") 
   }
 }
 
+namespace {
+
+// The opened crack of a cut unit box: the boundary faces that are not on the box's own boundary
+// (rest configuration), halved because each lip has its own copy; and the deepest rest point of one.
+struct OpenedCrack {
+  double area = 0;
+  double lowest = 1e9;
+};
+
+OpenedCrack opened_crack(const TetMesh& m) {
+  const auto& r = m.rest_positions();
+  auto on_box = [](const Vec3& p) {
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(p[i]) < 1e-12 || std::abs(p[i] - 1) < 1e-12) return true;
+    return false;
+  };
+  OpenedCrack out;
+  for (const auto& f : boundary_faces(m)) {
+    const Vec3 &a = r[f.nodes[0]], &b = r[f.nodes[1]], &c = r[f.nodes[2]];
+    if (on_box((a + b + c) / 3)) continue;
+    out.area += 0.25 * (b - a).cross(c - a).norm();
+    out.lowest = std::min({out.lowest, a.z(), b.z(), c.z()});
+  }
+  return out;
+}
+
+}  // namespace
+
+// Paper section 4.1: the cut surface reaches the tool. A partial-depth incision opens the whole area
+// the blade swept inside the box, down to the tip's path, and cut_surface_area() reports that area.
+// Before faces with entry nodes counted as crack faces, and before the entry nodes were split first,
+// the crack ended at the mid nodes half a face above the tip: 87-96 % of the swept area, the deepest
+// opened point 0.04-0.22 of a cell above the tip.
+TEST_CASE("a partial-depth incision opens the swept area down to the tip's path") {
+  const double h = 0.25;                 // 4 cells
+  for (const double end : {0.7, 1.3}) {  // the blade stops inside the box, or leaves it
+    for (const double tip : {0.26, 0.3, 0.35, 0.4, 0.45}) {
+      for (const double tilt : {0.0, 0.3}) {
+        CAPTURE(end);
+        CAPTURE(tip);
+        CAPTURE(tilt);
+        TetMesh mesh = make_box({.cells = {4, 4, 4}});
+        CutEngine cutter(mesh);
+        const double x = 0.37, top = 1.6;
+        auto blade = [&](double y) {
+          return BladePose{Vec3(x + tilt, y, top), Vec3(x, y, tip), Vec3(0, 1, 0)};
+        };
+        cutter.place(blade(-0.3));
+        const int n = static_cast<int>(std::lround((end + 0.3) * 1600));
+        for (int k = 1; k <= n; ++k) cutter.step(blade(-0.3 + (end + 0.3) * k / n));
+        require_valid(mesh, 1.0);
+        // The blade swept the plane through its two lines from the tip's path up to the top of the
+        // box, from y = 0 to where it stopped.
+        const double slant = std::sqrt(1 + tilt * tilt / ((top - tip) * (top - tip)));
+        const double swept = (1.0 - tip) * slant * std::min(end, 1.0);
+        const OpenedCrack open = opened_crack(mesh);
+        MESSAGE("blade stopped at y = " << end << ", tip " << tip << ", tilt " << tilt << ": opened "
+                                        << open.area / swept << " of the swept area, deepest opened point "
+                                        << (open.lowest - tip) / h << " cells above the tip");
+        // While the blade stands in the box, the tip is inside a tetrahedron, where no node follows
+        // it: the strip between the last face it pierced and the tip opens once it leaves.
+        CHECK(open.area >= (end < 1 ? 0.97 : 0.98) * swept);
+        CHECK(open.area <= swept * (1 + 1e-9));
+        CHECK(open.lowest - tip <= 0.1 * h);
+        CHECK(std::abs(cutter.cut_surface_area() - open.area) <= 0.02 * open.area);
+        CHECK(connected_components(mesh).count() == 1);
+      }
+    }
+  }
+}
+
 TEST_CASE("a curved incision (an arc) keeps the mesh valid and separates the box") {
   TetMesh mesh = make_box({.cells = {5, 5, 3}, .split = CubeSplit::Five});
   CutEngine cutter(mesh);

@@ -1,10 +1,12 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <random>
 
 #include "base/input_error.hpp"
+#include "devices/pose_log.hpp"
 #include "mesh/topology.hpp"
 #include "mesh/validate.hpp"
 #include "sim/scenario.hpp"
@@ -55,7 +57,12 @@ Scenario scenario(const std::string& model, int recursion_depth = 0, double cutt
 // Random strokes across the patch until a thousand of them changed the mesh; after every frame
 // the tissue's energy stays within 2 % of its settled value (cuts release prestress, and re-meshing
 // may not pump energy in) and nothing is NaN; at the end the mesh invariants hold. The tool does
-// not drag the tissue here: its push does work on it, which the bound does not allow for.
+// not drag the tissue here: its push does work on it, which the bound does not allow for. A frame's
+// re-meshing does add a few per cent of the settled energy at times (elements born where the blade
+// has strained the tissue), which the release of prestress around the cut usually outweighs: the
+// peak lies between 1.0 and 1.014 of the settled energy; nodes moved by the coarse face's corners
+// after orphan copies were removed gave 1.57, and entry nodes in tetrahedra whose cut was final,
+// which joined lips that stood apart, 1.031.
 void random_cuts(int recursion_depth) {
   for (const std::string model : {"corotational", "mass_spring"}) {
     CAPTURE(model);
@@ -109,7 +116,7 @@ void random_cuts(int recursion_depth) {
           REQUIRE(std::isfinite(st.kinetic_energy));
           peak = std::max(peak, st.elastic_energy + st.kinetic_energy);
           held = std::max(held, st.strain_limited);
-          REQUIRE(st.elastic_energy + st.kinetic_energy <= 1.005 * settled);
+          REQUIRE(st.elastic_energy + st.kinetic_energy <= 1.02 * settled);
         }
       }
     }
@@ -443,4 +450,39 @@ TEST_CASE("a piece a cut severs from every fixed node is held where it lies, not
                               << " s; largest motion over the next second " << drift * 1e3 << " mm");
   CHECK(drift < 0.005);  // the cantilever settles by millimetres; a falling piece would go metres
   for (const NodeId n : sim.mesh().nodes()) CHECK(sim.mesh().position(n).z() > -0.03);
+}
+
+// The bundled incision, replayed a frame every 16 samples: the blade, leaning back by 40 degrees,
+// runs along the target line under the default drag and is lifted straight out at its end, where
+// its edge cuts the skin ahead of where it crossed the surface up to the tip's way out. Under the
+// drag the tissue moves with the blade between two tool samples and springs back when it lifts
+// out: relative to the tissue the blade moved where the tool did not. Before the cutter followed
+// the tissue's motion (CutEngine::follow_tissue), the lips stayed joined at the skin 1.4 and 0.5
+// mm before the end of the line; now only within the last millimetre, where the tip's way out ends
+// the cut surface (0.5 mm), and at the cut's start.
+TEST_CASE("the lips part at the skin up to where the blade lifted out of tissue it had dragged along") {
+  const std::filesystem::path root(SCALPEL_SOURCE_DIR);
+  const Scenario sc = load_scenario(root / "config/scenarios/skin_incision.yaml");
+  REQUIRE(sc.task);
+  REQUIRE(sc.tool.cutting_resistance > 0);
+  Simulation sim(sc);
+  PoseLogReader log((root / "config/logs/skin_incision.csv").string());
+  ForceChannel forces;
+  ToolSample s;
+  int samples = 0;
+  double t = 0;
+  while (log.next(s)) {
+    sim.on_sample(s);
+    if (++samples % 16 == 0) sim.end_frame(t += 1.0 / 60, forces);
+  }
+  const auto& path = sc.task->path;
+  const double length = (path.back() - path.front()).norm();
+  const WoundGape g = sim.wound_gape(path, 3 * sc.task->tolerance, 0.004);
+  std::size_t inside = 0;
+  for (const WoundGape::Point& p : g.profile) {
+    if (p.s < 1e-3 || p.s > length - 1e-3) continue;  // the cut's ends
+    ++inside;
+    CHECK_MESSAGE(!p.bridge, "lips joined " << (length - p.s) * 1e3 << " mm before the end of the line");
+  }
+  CHECK(inside >= 20);
 }
