@@ -323,7 +323,8 @@ void check_state(const CutTable& table, const MachineState& s, const Perm4& perm
 
 }  // namespace
 
-TEST_CASE("exhaustive table check: every reachable state under all 24 permutations, alone and embedded") {
+TEST_CASE("exhaustive table check: every reachable state under all 24 permutations, alone and embedded" *
+          doctest::test_suite("slow")) {
   const CutTable& table = default_cut_table();
   const auto states = reachable_states(table);
   std::size_t checked = 0;

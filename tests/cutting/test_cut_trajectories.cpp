@@ -320,15 +320,18 @@ void run_property_test(const Scene& s, int per_kind, std::uint64_t seed) {
 
 }  // namespace
 
-TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 6-split box") {
+TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 6-split box" *
+          doctest::test_suite("slow")) {
   run_property_test(box_scene(CubeSplit::Six), 200, 0x5ca1e1);
 }
 
-TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 5-split box") {
+TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 5-split box" *
+          doctest::test_suite("slow")) {
   run_property_test(box_scene(CubeSplit::Five), 200, 0x5ca1e2);
 }
 
-TEST_CASE("generated trajectories keep invariants 1-5 after every step: gmsh irregular mesh") {
+TEST_CASE("generated trajectories keep invariants 1-5 after every step: gmsh irregular mesh" *
+          doctest::test_suite("slow")) {
   run_property_test(gmsh_scene(), 60, 0x5ca1e3);
 }
 
@@ -362,7 +365,8 @@ std::size_t incision_tets(double tremble, double sideways, std::uint64_t seed, C
 }  // namespace
 
 TEST_CASE(
-    "tremble economy: an incision with tremble below an edge length costs at most 1.15x the tetrahedra") {
+    "tremble economy: an incision with tremble below an edge length costs at most 1.15x the tetrahedra" *
+    doctest::test_suite("slow")) {
   const double h = 1.0 / 6.0;
   const std::size_t straight = incision_tets(0.0, 0.0, 1);
   double worst = 0.0;
