@@ -446,7 +446,8 @@ EdgeSet reference_cuts(const TetMesh& m, const BladePose& prev, const BladePose&
 
 }  // namespace
 
-TEST_CASE("after deformation, refit and incremental updates the tree query equals brute force") {
+TEST_CASE("after deformation, refit and incremental updates the tree query equals brute force" *
+          doctest::test_suite("slow")) {
   TetMesh m = make_box({Vec3::Zero(), Vec3::Ones(), {8, 8, 8}, CubeSplit::Six, 0});
   REQUIRE(m.tet_count() == 3072);
   BladeSweep fast(m);

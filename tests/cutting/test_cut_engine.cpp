@@ -40,7 +40,7 @@ void sweep_through(CutEngine& cutter, double x, Each&& each) {
 
 }  // namespace
 
-TEST_CASE("a planar through-cut separates a box into two exact halves") {
+TEST_CASE("a planar through-cut separates a box into two exact halves" * doctest::test_suite("slow")) {
   for (const CubeSplit split : {CubeSplit::Six, CubeSplit::Five}) {
     CAPTURE(static_cast<int>(split));
     TetMesh mesh = make_box({.cells = {4, 4, 4}, .split = split});
@@ -235,7 +235,8 @@ TEST_CASE("a scalpel entering the top surface from above pierces faces before cu
   CHECK(connected_components(mesh).count() == 1);
 }
 
-TEST_CASE("a planar through-cut of a gmsh-made irregular mesh separates exact halves") {
+TEST_CASE("a planar through-cut of a gmsh-made irregular mesh separates exact halves" *
+          doctest::test_suite("slow")) {
   TetMesh mesh = read_gmsh(SCALPEL_TEST_MSH22);
   const MeshSummary before = summarize(mesh);
   CutEngine cutter(mesh);
@@ -393,7 +394,8 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "several incisions: two parallel through-cuts sever a slab, a crossing cut splits all three pieces") {
+    "several incisions: two parallel through-cuts sever a slab, a crossing cut splits all three pieces" *
+    doctest::test_suite("slow")) {
   // y = 0.4151 crosses the earlier cuts between their nodes, with no sample in their planes; y =
   // 0.41 passes exactly through the face nodes they left at their samples (the earlier blades
   // stood at y = 0.41 and 0.42) and samples in their planes: the new surface runs over nodes of the
@@ -442,7 +444,8 @@ TEST_CASE(
     }
 }
 
-TEST_CASE("one stroke that closes on itself excises what it encloses, a figure of eight both lobes") {
+TEST_CASE("one stroke that closes on itself excises what it encloses, a figure of eight both lobes" *
+          doctest::test_suite("slow")) {
   // Through-cuts by a vertical blade in one stroke, without lifting out: a circle run 0.3 rad past
   // its start, and a figure of eight (x, y) = (0.35 sin a, 0.25 sin 2a) that crosses its own cut at
   // the centre. Each lobe of the eight encloses 4/3 * 0.35 * 0.25 of the unit-square section; on
@@ -485,7 +488,8 @@ TEST_CASE("one stroke that closes on itself excises what it encloses, a figure o
     }
 }
 
-TEST_CASE("one stroke that crosses its own incision where the blade has left it continues it there") {
+TEST_CASE("one stroke that crosses its own incision where the blade has left it continues it there" *
+          doctest::test_suite("slow")) {
   // A vertical blade in one stroke, never lifted: up x = 0.37, right along y = 0.8, down x = 0.8,
   // then left along y = 0.4151 across the first leg and out. The first leg was cut some 900
   // samples before the blade returns to it: that part of the stroke is continued one level deeper
@@ -534,7 +538,8 @@ TEST_CASE("one stroke that crosses its own incision where the blade has left it 
     }
 }
 
-TEST_CASE("a cut that starts where an earlier one ends frees the flap between them (Fig. 12)") {
+TEST_CASE("a cut that starts where an earlier one ends frees the flap between them (Fig. 12)" *
+          doctest::test_suite("slow")) {
   // An incision along y at x = 0.37 up to y = 0.6, pulled back out along its path; then a new one
   // from its end along x to the far side: an L that frees the corner x > 0.37, y < 0.6. The new
   // cut starts in the tetrahedra where the first ends, whose cut nodes there have not opened: the
@@ -559,7 +564,8 @@ TEST_CASE("a cut that starts where an earlier one ends frees the flap between th
   }
 }
 
-TEST_CASE("a third cut goes two levels deep: at the depth bound it falls back and the mesh stays valid") {
+TEST_CASE("a third cut goes two levels deep: at the depth bound it falls back and the mesh stays valid" *
+          doctest::test_suite("slow")) {
   // x = 0.37 and x = 0.3913 along y, y = 0.4151 along x: the third cut runs through the tetrahedra
   // of the first, which the second cut promoted and cut again.
   auto cut = [](CutEngine& cutter, TetMesh& mesh, bool along_y, double at, double offset) {
@@ -611,7 +617,8 @@ TEST_CASE("a third cut goes two levels deep: at the depth bound it falls back an
   }
 }
 
-TEST_CASE("an opened crack stays open where later cuts reach it: copies follow their elements") {
+TEST_CASE("an opened crack stays open where later cuts reach it: copies follow their elements" *
+          doctest::test_suite("slow")) {
   // A cut that stops inside the box, its crack opened by moving each side apart, then a cut across
   // it and a third along the first, through the tetrahedra the second promoted. No element may hold
   // nodes from both sides of the opened crack: that would tear it across the gap.
@@ -728,7 +735,8 @@ TEST_CASE(
     }
 }
 
-TEST_CASE("a blade back along an opened cut at a slight slant shaves no slivers off it") {
+TEST_CASE("a blade back along an opened cut at a slight slant shaves no slivers off it" *
+          doctest::test_suite("slow")) {
   // x = 0.37 along y, then y = 0.4151 along x, which continues the first cut one level deeper
   // (section 6): its cut nodes become corners of units, and edges between them lie in the opened
   // crack. A third stroke goes back along the first with the blade slanted by 0.05 (about 3
@@ -824,7 +832,8 @@ TEST_CASE("the cut area is one side's crack faces: a rigidly moved side leaves i
   }
 }
 
-TEST_CASE("cut node copies that no element uses are removed: every live node is in a live element") {
+TEST_CASE("cut node copies that no element uses are removed: every live node is in a live element" *
+          doctest::test_suite("slow")) {
   // Groups around a cut node can join again (an entry node of the tip's path, which never opens,
   // takes a crack face's place), and promotion changes which groups remain: the copy a group no
   // longer has must go with its elements, at every step.

@@ -452,10 +452,10 @@ void fuzz(const Scene& s, Kind kind, std::size_t fallback_budget, std::uint64_t 
 
 }  // namespace
 
-TEST_CASE("fuzz: tumbling blades through a 3x3x3 box") {
+TEST_CASE("fuzz: tumbling blades through a 3x3x3 box" * doctest::test_suite("slow")) {
   fuzz(box(3), Kind::Tumble, 2, 0xf022);
 }
-TEST_CASE("fuzz: through-cuts crossing along grid planes") {
+TEST_CASE("fuzz: through-cuts crossing along grid planes" * doctest::test_suite("slow")) {
   fuzz(box(4), Kind::GridCrossing, 4, 0xf023);
 }
 TEST_CASE("fuzz: partial-depth incisions crossing, box") {
@@ -467,12 +467,12 @@ TEST_CASE("fuzz: through-cut with tremor, box") {
 // A second through-cut crossing the first at a small angle, which near their meeting line lies
 // within the tolerances meant for the blade's own tremble (docs/state_machine.md, re-crossing the
 // same cut): a cut node of an earlier stroke is the same cut only within 2 degrees.
-TEST_CASE("fuzz: through-cuts crossing at random angles, box") {
+TEST_CASE("fuzz: through-cuts crossing at random angles, box" * doctest::test_suite("slow")) {
   fuzz(box(3), Kind::ThroughCrossing, 4, 0xf024);
 }
-TEST_CASE("fuzz: through-cuts crossing at 10-40 degrees, box") {
+TEST_CASE("fuzz: through-cuts crossing at 10-40 degrees, box" * doctest::test_suite("slow")) {
   fuzz(box(3), Kind::ShallowCrossing, 6, 0xf028);
 }
-TEST_CASE("fuzz: through-cuts crossing at random angles, gmsh") {
+TEST_CASE("fuzz: through-cuts crossing at random angles, gmsh" * doctest::test_suite("slow")) {
   fuzz(testing::gmsh_scene("gmsh box with inclusion", SCALPEL_TEST_MSH22), Kind::ThroughCrossing, 4, 0xf027);
 }

@@ -320,15 +320,18 @@ void run_property_test(const Scene& s, int per_kind, std::uint64_t seed) {
 
 }  // namespace
 
-TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 6-split box") {
+TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 6-split box" *
+          doctest::test_suite("slow")) {
   run_property_test(box_scene(CubeSplit::Six), 200, 0x5ca1e1);
 }
 
-TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 5-split box") {
+TEST_CASE("generated trajectories keep invariants 1-5 after every step: structured 5-split box" *
+          doctest::test_suite("slow")) {
   run_property_test(box_scene(CubeSplit::Five), 200, 0x5ca1e2);
 }
 
-TEST_CASE("generated trajectories keep invariants 1-5 after every step: gmsh irregular mesh") {
+TEST_CASE("generated trajectories keep invariants 1-5 after every step: gmsh irregular mesh" *
+          doctest::test_suite("slow")) {
   run_property_test(gmsh_scene(), 60, 0x5ca1e3);
 }
 
@@ -362,26 +365,35 @@ std::size_t incision_tets(double tremble, double sideways, std::uint64_t seed, C
 }  // namespace
 
 TEST_CASE(
-    "tremble economy: an incision with tremble below an edge length costs at most 1.2x the tetrahedra") {
+    "tremble economy: an incision with tremble below an edge length costs at most 1.15x the tetrahedra" *
+    doctest::test_suite("slow")) {
   const double h = 1.0 / 6.0;
   const std::size_t straight = incision_tets(0.0, 0.0, 1);
   double worst = 0.0;
   std::size_t undone = 0;
   // Across the cut plane the tremble moves the cut surface itself; along the path and the blade it
-  // makes the blade reverse, stab and lift, which must not cost elements.
-  for (const auto& [along, across] : {std::pair{0.2 * h, 0.2 * h}, {0.5 * h, 0.5 * h}, {0.95 * h, 0.2 * h}}) {
+  // makes the blade reverse, stab and lift, which must not cost elements. The bounds are the
+  // measured worst ratios rounded up: 1.0 for a fifth of an edge, 1.03 for half, 1.145 for 0.95
+  // edge lengths along the path.
+  struct Case {
+    double along, across, bound;
+  };
+  for (const Case& c :
+       {Case{0.2 * h, 0.2 * h, 1.01}, Case{0.5 * h, 0.5 * h, 1.05}, Case{0.95 * h, 0.2 * h, 1.15}}) {
     for (std::uint64_t seed = 1; seed <= 5; ++seed) {
       CutTotals totals;
-      const std::size_t trembling = incision_tets(along, across, seed, &totals);
+      const std::size_t trembling = incision_tets(c.along, c.across, seed, &totals);
       const double ratio = static_cast<double>(trembling) / static_cast<double>(straight);
-      CAPTURE(along);
-      CAPTURE(across);
+      CAPTURE(c.along);
+      CAPTURE(c.across);
       CAPTURE(seed);
-      CHECK(ratio <= 1.2);
+      CHECK(ratio <= c.bound);
       undone += totals.undone_faces;
       worst = std::max(worst, ratio);
     }
   }
+  // The tremble at faces is undone (section 5.1), not only tolerated.
+  CHECK(undone > 0);
   MESSAGE(
       "straight incision: " << straight
                             << " tetrahedra; with tremble up to 0.95 edge lengths peak to peak: worst ratio "

@@ -268,7 +268,8 @@ TEST_CASE("mass-spring: edge springs and a volume term, which volume_springs = f
         doctest::Approx(0.5 * kappa * volume * (1 - s * s * s) * (1 - s * s * s)).epsilon(1e-9));
 }
 
-TEST_CASE("mass-spring: the patch's Young's modulus and Poisson's ratio are the material's") {
+TEST_CASE("mass-spring: the patch's Young's modulus and Poisson's ratio are the material's" *
+          doctest::test_suite("slow")) {
   // Uniaxial stress on a cube of the generated mesh (see patch_gradient). The co-rotational model is
   // linear elasticity to first order: the measurement itself is checked against it.
   for (const double poisson : {0.3, 0.4, 0.45}) {
@@ -309,7 +310,7 @@ TEST_CASE("no force and no motion under a rigid rotation without prestress") {
   }
 }
 
-TEST_CASE("a cantilever under gravity sags by the Euler-Bernoulli deflection") {
+TEST_CASE("a cantilever under gravity sags by the Euler-Bernoulli deflection" * doctest::test_suite("slow")) {
   // Clamped at x = 0, length L, square section h x h, uniform load q = rho g h^2:
   // tip deflection q L^4 / (8 E I), I = h^4 / 12. Poisson ratio 0 so that the beam theory applies;
   // the Timoshenko shear correction at L/h = 10 is 0.8 %. Linear tetrahedra are too stiff in
@@ -340,7 +341,8 @@ TEST_CASE("a cantilever under gravity sags by the Euler-Bernoulli deflection") {
   CHECK(std::abs(-tip - euler_bernoulli) <= 0.05 * euler_bernoulli);
 }
 
-TEST_CASE("energy stays bounded and finite through a thousand random topology edits") {
+TEST_CASE("energy stays bounded and finite through a thousand random topology edits" *
+          doctest::test_suite("slow")) {
   for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
     TetMesh m = make_box({.max = Vec3(0.02, 0.02, 0.01), .cells = {4, 4, 2}});
     const double volume0 = m.total_rest_volume();
@@ -450,7 +452,8 @@ Wound open_wound(double prestress, TissueKind kind) {
 
 }  // namespace
 
-TEST_CASE("the wound opens: an incision in prestressed skin gapes, more with more prestress") {
+TEST_CASE("the wound opens: an incision in prestressed skin gapes, more with more prestress" *
+          doctest::test_suite("slow")) {
   for (const TissueKind kind : {TissueKind::Corotational, TissueKind::MassSpring}) {
     const double none = open_wound(1.0, kind).gape;
     const double some = open_wound(1.05, kind).gape;
@@ -500,7 +503,7 @@ std::vector<Material> prestressed(std::size_t regions, double lambda0) {
 
 }  // namespace
 
-TEST_CASE("the step is bit-identical run to run and for any thread count") {
+TEST_CASE("the step is bit-identical run to run and for any thread count" * doctest::test_suite("slow")) {
   std::vector<std::vector<Vec3>> results;
   for (const int threads : {1, 2, 2}) {
     TetMesh m = skin_fat_slab(12);
@@ -549,7 +552,8 @@ struct CutSlab {
 
 }  // namespace
 
-TEST_CASE("a step whose solve stops at the iteration cap is not applied as it is") {
+TEST_CASE("a step whose solve stops at the iteration cap is not applied as it is" *
+          doctest::test_suite("slow")) {
   // One iteration cannot solve the step after a cut, at dt or at any of its halvings: it is
   // redone as two steps of dt/2 down to dt/8, and each of those is held.
   {
@@ -606,7 +610,8 @@ TEST_CASE("a two-level cycle found not positive definite is rebuilt with a fresh
   CHECK(st.cycle_iterations == st.cg_iterations);
 }
 
-TEST_CASE("after an incision the two-level preconditioner needs far fewer CG iterations") {
+TEST_CASE("after an incision the two-level preconditioner needs far fewer CG iterations" *
+          doctest::test_suite("slow")) {
   std::vector<StepStats> after;
   for (const Preconditioner pre : {Preconditioner::BlockJacobi, Preconditioner::TwoLevel}) {
     TetMesh m = skin_fat_slab(16);
@@ -626,7 +631,8 @@ TEST_CASE("after an incision the two-level preconditioner needs far fewer CG ite
   CHECK(2 * after[1].cg_iterations < after[0].cg_iterations);
 }
 
-TEST_CASE("an aggregate a cut grew past coarse_regroup_growth is rebuilt at the next step") {
+TEST_CASE("an aggregate a cut grew past coarse_regroup_growth is rebuilt at the next step" *
+          doctest::test_suite("slow")) {
   // The duplicated nodes of an 8 mm incision join the aggregates of their originals: those along
   // it grow (here past 1.1 times their size; the default 2 is met along a deep progressive cut).
   const auto run = [](double growth) {
@@ -651,7 +657,8 @@ TEST_CASE("an aggregate a cut grew past coarse_regroup_growth is rebuilt at the 
   CHECK(regrouped[1].cycle_iterations < kept[1].cycle_iterations);
 }
 
-TEST_CASE("after a cut the solve starts at the cut: the same motion in fewer cycle iterations") {
+TEST_CASE("after a cut the solve starts at the cut: the same motion in fewer cycle iterations" *
+          doctest::test_suite("slow")) {
   // A short incision into settled skin; the step after it with and without the local solve.
   struct Run {
     StepStats after;
@@ -688,7 +695,8 @@ TEST_CASE("after a cut the solve starts at the cut: the same motion in fewer cyc
   CHECK(gap < 1e-12);
 }
 
-TEST_CASE("the region solved first after a cut grows by rings up to local_fraction of the free nodes") {
+TEST_CASE("the region solved first after a cut grows by rings up to local_fraction of the free nodes" *
+          doctest::test_suite("slow")) {
   const auto run = [](double fraction, std::size_t& free_nodes) {
     TetMesh m = skin_fat_slab(16);
     const std::vector<Material> mats = prestressed(2, 1.1);
@@ -713,8 +721,8 @@ TEST_CASE("the region solved first after a cut grows by rings up to local_fracti
   CHECK(wide.local_nodes > narrow.local_nodes);
 }
 
-TEST_CASE(
-    "a cut that severs a coarse aggregate: the local region has severing_rings rings, the same motion") {
+TEST_CASE("a cut that severs a coarse aggregate: the local region has severing_rings rings, the same motion" *
+          doctest::test_suite("slow")) {
   const auto run = [](int severing_rings, double tolerance, StepStats& cut) {
     TetMesh m = skin_fat_slab(12);
     const std::vector<Material> mats = prestressed(2, 1.1);

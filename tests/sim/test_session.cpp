@@ -38,7 +38,8 @@ bool watch(Session& session, Done done, double limit_seconds = 600.0) {
 
 }  // namespace
 
-TEST_CASE("a live session's recording replays headless to the same mesh, bit for bit") {
+TEST_CASE("a live session's recording replays headless to the same mesh, bit for bit" *
+          doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session";
   fs::remove_all(dir);
@@ -98,7 +99,8 @@ TEST_CASE("a live session's recording replays headless to the same mesh, bit for
   CHECK(r.report["replay"]["frames"].get<std::size_t>() == live.tissue_steps().size());
 }
 
-TEST_CASE("a paused session stands still, and a reset starts a new attempt with its own recording") {
+TEST_CASE("a paused session stands still, and a reset starts a new attempt with its own recording" *
+          doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_reset";
   fs::remove_all(dir);
@@ -182,7 +184,8 @@ class MovingHand final : public Device {
 
 }  // namespace
 
-TEST_CASE("a tool moved during a pause resumes where it stood: no jump for the cutter") {
+TEST_CASE("a tool moved during a pause resumes where it stood: no jump for the cutter" *
+          doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_clutch";
   fs::remove_all(dir);

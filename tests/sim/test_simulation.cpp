@@ -137,13 +137,15 @@ void random_cuts(int recursion_depth) {
 
 }  // namespace
 
-TEST_CASE("tissue under a thousand random cuts: energy bounded, no NaN, invariants hold") {
+TEST_CASE("tissue under a thousand random cuts: energy bounded, no NaN, invariants hold" *
+          doctest::test_suite("slow")) {
   random_cuts(0);
 }
 
 // Strokes that reach earlier cuts continue there recursively (paper section 6): the cutter then
 // subdivides tissue that has already deformed, where elements are born far from their rest shape.
-TEST_CASE("tissue under a thousand random cuts with the recursive continuation: energy bounded") {
+TEST_CASE("tissue under a thousand random cuts with the recursive continuation: energy bounded" *
+          doctest::test_suite("slow")) {
   random_cuts(8);
 }
 
@@ -253,7 +255,8 @@ double surface_drag_ahead(const Simulation& sim, double x) {
 
 }  // namespace
 
-TEST_CASE("the tool drags the tissue it cuts: the push is the resistance the hand feels, along the motion") {
+TEST_CASE("the tool drags the tissue it cuts: the push is the resistance the hand feels, along the motion" *
+          doctest::test_suite("slow")) {
   constexpr double kResistance = 350.0;  // [N/m]
   int in_contact = 0;
   const auto pushed = straight_stroke(kResistance, [&](const Simulation& sim, const ForceModel& model) {
@@ -343,7 +346,8 @@ tissue: {model: )" + model +
 
 }  // namespace
 
-TEST_CASE("a progressive incision: each step after a cut is solved near the cut first") {
+TEST_CASE("a progressive incision: each step after a cut is solved near the cut first" *
+          doctest::test_suite("slow")) {
   const auto plain = progressive_incision(0);
   const auto local = progressive_incision(6);
   const auto cycles_after_cuts = [](const Simulation& sim, std::size_t& steps, std::size_t& local_steps) {
@@ -380,7 +384,7 @@ TEST_CASE("a progressive incision: each step after a cut is solved near the cut 
   CHECK(gap < 1e-3 * moved);  // measured: 2e-8 m against 2.9 mm
 }
 
-TEST_CASE("a deep incision in the mass-spring tissue converges at every step") {
+TEST_CASE("a deep incision in the mass-spring tissue converges at every step" * doctest::test_suite("slow")) {
   // The cutter leaves sub-tetrahedra whose nodes move far apart: held springs and volume terms
   // (fem/element.hpp). Without their secant weights, 28 steps of this run hit the iteration cap.
   const auto sim = progressive_incision(6, "mass_spring", 24, true);
@@ -398,7 +402,8 @@ TEST_CASE("a deep incision in the mass-spring tissue converges at every step") {
   CHECK(held > 100);  // the run makes many held elements: the test is about them
 }
 
-TEST_CASE("a piece a cut severs from every fixed node is held where it lies, not left to fall") {
+TEST_CASE("a piece a cut severs from every fixed node is held where it lies, not left to fall" *
+          doctest::test_suite("slow")) {
   // The patch of kScenario held at its x_min side only (a cantilever), cut through its whole
   // thickness and width at x = 5 mm: the part beyond the cut is free. Under gravity it would fall
   // without bound (0.5 g t^2: 4.9 m in a second); held, it stays where the cut left it.

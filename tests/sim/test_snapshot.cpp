@@ -58,7 +58,8 @@ TEST_CASE("an uncut patch's snapshot is all skin: the patch's outer surface, and
   CHECK_FALSE(s.has_blade);
 }
 
-TEST_CASE("after the bundled incision the wound is both lips of the cut surface") {
+TEST_CASE("after the bundled incision the wound is both lips of the cut surface" *
+          doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
   FrameSnapshot last;
   double cut_area = 0.0;

@@ -109,11 +109,13 @@ void check_settles(Scenario sc) {
 
 }  // namespace
 
-TEST_CASE("the bundled prestressed skin settles at its 60 Hz step, to the shape a 600 Hz step reaches") {
+TEST_CASE("the bundled prestressed skin settles at its 60 Hz step, to the shape a 600 Hz step reaches" *
+          doctest::test_suite("slow")) {
   check_settles(load_scenario(bundled("scenarios/skin_incision.yaml")));
 }
 
-TEST_CASE("a prestressed membrane fixed at its sides settles at 60 Hz, to the shape a 600 Hz step reaches") {
+TEST_CASE("a prestressed membrane fixed at its sides settles at 60 Hz, to the shape a 600 Hz step reaches" *
+          doctest::test_suite("slow")) {
   check_settles(parse_scenario(membrane(1.05, 60, true, 20), "membrane.yaml", "."));
 }
 
@@ -196,7 +198,8 @@ std::vector<double> plane_stress_crack_opening(double b, double a, int cells, do
 
 }  // namespace
 
-TEST_CASE("the 2-D reference converges to the infinite plate's crack opening 4 sigma a / E") {
+TEST_CASE("the 2-D reference converges to the infinite plate's crack opening 4 sigma a / E" *
+          doctest::test_suite("slow")) {
   // Far edges: the opening of a Griffith crack, 4 sigma a / E at the middle (plane stress),
   // elliptical along the crack (Tada, Paris, Irwin, The Stress Analysis of Cracks Handbook, 3rd
   // ed., 2000, section 5.1).
@@ -265,7 +268,8 @@ CrackOpening cut_membrane(int cells, int tip_plane) {
 
 }  // namespace
 
-TEST_CASE("a through-cut of a prestressed membrane opens as plane-stress elasticity says") {
+TEST_CASE("a through-cut of a prestressed membrane opens as plane-stress elasticity says" *
+          doctest::test_suite("slow")) {
   const CrackOpening c = cut_membrane(41, 8);  // 1.46 mm cells, 2a = 36.6 mm
   CHECK(c.reference_change <= 0.01);
   const double cod = c.reference[0];
@@ -297,7 +301,7 @@ TEST_CASE("a through-cut of a prestressed membrane opens as plane-stress elastic
   CHECK(checked >= 20);
 }
 
-TEST_CASE("the bundled incision gapes at the skin surface") {
+TEST_CASE("the bundled incision gapes at the skin surface" * doctest::test_suite("slow")) {
   // The replay of the bundled scenario and log: the lips stand at least 2.5 mm apart at the middle
   // of the incision, and tissue bridges them only within a cell of where the blade enters and lifts
   // out (cells of 40/15 mm along the path).

@@ -78,7 +78,8 @@ Replayed replay_bundled() {
 
 }  // namespace
 
-TEST_CASE("the bundled replay's pictures show the gaping wound along the target line, and the blade") {
+TEST_CASE("the bundled replay's pictures show the gaping wound along the target line, and the blade" *
+          doctest::test_suite("slow")) {
   const Replayed r = replay_bundled();
   constexpr int kWidth = 800, kHeight = 600;
   OffscreenRenderer renderer(kWidth, kHeight);

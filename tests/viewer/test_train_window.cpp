@@ -76,7 +76,8 @@ bool is_wound(const unsigned char* p) {
 
 }  // namespace
 
-TEST_CASE("the trainee's window shows a played-back incision opening, with its overlay, and records it") {
+TEST_CASE("the trainee's window shows a played-back incision opening, with its overlay, and records it" *
+          doctest::test_suite("slow")) {
   VirtualDisplay display;
   const Scenario scenario =
       load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
