@@ -1372,16 +1372,19 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
 // so the area does not grow as the crack opens.
 double CutEngine::cut_surface_area() const {
   double area = 0.0;
+  for (const auto& f : cut_surface_faces())
+    area += triangle_area(mesh_.position(f[0]), mesh_.position(f[1]), mesh_.position(f[2]));
+  return area;
+}
+
+std::vector<std::array<NodeId, 3>> CutEngine::cut_surface_faces() const {
   std::vector<std::uint32_t> keys;
   for (const auto& [k, c] : cut_tets_) keys.push_back(k);
   std::sort(keys.begin(), keys.end());
-  auto face_area = [&](const std::array<NodeId, 3>& f) {
-    return triangle_area(mesh_.position(f[0]), mesh_.position(f[1]), mesh_.position(f[2]));
-  };
-  for (const auto& f : retired_crack_faces_) area += face_area(f);
+  std::vector<std::array<NodeId, 3>> out = retired_crack_faces_;
   for (const CrackFace& f : crack_faces(keys))
-    area += face_area(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
-  return area;
+    out.push_back(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
+  return out;
 }
 
 std::vector<CutEngine::CrackFace> CutEngine::crack_faces(const std::vector<std::uint32_t>& units) const {

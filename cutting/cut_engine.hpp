@@ -208,6 +208,8 @@ class CutEngine {
   [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p, double margin = 0.0) const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
+  // The cut surface's triangles on one side (the live nodes of one lip), the faces that area sums.
+  [[nodiscard]] std::vector<std::array<NodeId, 3>> cut_surface_faces() const;
   // Each cut node (a point the cut surface passes through, in the order made) with its rest
   // position and the real copies live elements use: one while the crack is closed there, one per
   // side once it has opened (the lips of the wound).

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <sstream>
 
 #include "base/input_error.hpp"
+#include "haptics/force_model.hpp"
+#include "sim/simulation.hpp"
 
 namespace scalpel {
 
@@ -86,8 +89,56 @@ class Path {
   std::vector<double> radius_;   // blend radius per point
 };
 
-double cut_depth(const Task& task, const IncisionMotion& m) {
-  return m.depth >= 0.0 ? m.depth : 0.5 * (task.depth_min + task.depth_max);
+// Where the tissue has carried the points the blade aims at. The task is drawn on the tissue at rest,
+// but prestressed tissue settles before the blade arrives (stretched skin thins, the surface sinks):
+// the hand follows the line and depth where they lie then. The tissue is stepped, without the
+// tool, up to `settle` [s]; the aim point at arc length s is the material point `depth` below the
+// path, and the offset its displacement, sampled every kOffsetSpacing and interpolated.
+class SettledOffsets {
+ public:
+  static constexpr double kOffsetSpacing = 0.5e-3;  // [m]
+
+  SettledOffsets(const Simulation& sim, const Path& path, double depth) {
+    const TetMesh& mesh = sim.mesh();
+    const int n = std::max(1, static_cast<int>(std::ceil(path.length() / kOffsetSpacing)));
+    for (int k = 0; k <= n; ++k) {
+      const Vec3 aim = path.point(path.length() * k / n) - depth * Vec3::UnitZ();
+      offsets_.push_back(displacement(mesh, aim));
+    }
+    step_ = path.length() / n;
+  }
+  [[nodiscard]] Vec3 at(double s) const {
+    const double u = std::clamp(s / step_, 0.0, static_cast<double>(offsets_.size() - 1));
+    const auto i = std::min(static_cast<std::size_t>(u), offsets_.size() - 2);
+    const double f = u - static_cast<double>(i);
+    return (1 - f) * offsets_[i] + f * offsets_[i + 1];
+  }
+
+ private:
+  // The displacement of the material point at rest position p (zero outside the tissue).
+  static Vec3 displacement(const TetMesh& mesh, const Vec3& p) {
+    for (const TetId t : mesh.tets()) {
+      const auto v = mesh.tet_nodes(t);
+      const std::array<Vec3, 4> x{mesh.rest(v[0]), mesh.rest(v[1]), mesh.rest(v[2]), mesh.rest(v[3])};
+      const double whole = signed_volume(x[0], x[1], x[2], x[3]);
+      if (!(whole > 0.0)) continue;
+      const std::array<double, 4> w{
+          signed_volume(p, x[1], x[2], x[3]) / whole, signed_volume(x[0], p, x[2], x[3]) / whole,
+          signed_volume(x[0], x[1], p, x[3]) / whole, signed_volume(x[0], x[1], x[2], p) / whole};
+      if (std::any_of(w.begin(), w.end(), [](double wi) { return wi < -1e-9; })) continue;
+      Vec3 d = Vec3::Zero();
+      for (int i = 0; i < 4; ++i) d += w[i] * (mesh.position(v[i]) - x[i]);
+      return d;
+    }
+    return Vec3::Zero();
+  }
+
+  std::vector<Vec3> offsets_;
+  double step_ = 1.0;
+};
+
+double cut_depth(const Incision& incision, const IncisionMotion& m) {
+  return m.depth >= 0.0 ? m.depth : 0.5 * (incision.depth_min + incision.depth_max);
 }
 
 const Task& task_of(const Scenario& s) {
@@ -97,9 +148,9 @@ const Task& task_of(const Scenario& s) {
 
 // One incision along `path`, starting at time `t0` [s] and sample index `k0`: appends its samples
 // to `out`; returns the index of the next sample.
-long long append_incision(const Scenario& scenario, const Path& path, const IncisionMotion& m, double t0,
-                          long long k0, std::vector<ToolSample>& out) {
-  const double depth = cut_depth(task_of(scenario), m);
+long long append_incision(const Scenario& scenario, const Path& path, double depth,
+                          const SettledOffsets* settled, const IncisionMotion& m, double t0, long long k0,
+                          std::vector<ToolSample>& out) {
   const Vec3 up = Vec3::UnitZ();
   const Vec3 blade_axis = (scenario.tool.blade_back - scenario.tool.blade_tip).normalized();  // tool frame
 
@@ -148,6 +199,7 @@ long long append_incision(const Scenario& scenario, const Path& path, const Inci
     q = Eigen::Quaterniond(round_to(q.w(), 1e9), round_to(q.x(), 1e9), round_to(q.y(), 1e9),
                            round_to(q.z(), 1e9));
     Vec3 tip = path.point(s) + height * up;
+    if (settled) tip += settled->at(s);
     if (m.tremble > 0.0 && t > t_plunge && t < t_hold) {
       // Fades in and out over the plunge and the lift, so the tool rests at both ends.
       const double fade =
@@ -172,14 +224,40 @@ long long append_incision(const Scenario& scenario, const Path& path, const Inci
 std::vector<ToolSample> generate_task_log(const Scenario& scenario, const IncisionMotion& m) {
   const Task& task = task_of(scenario);
   std::vector<ToolSample> out;
-  const long long next = append_incision(scenario, Path(task.path, m.corner_radius), m, 0.0, 0, out);
+  // With follow_settled_tissue, the tissue as the blade meets it: the simulation takes the samples
+  // made so far, frame by frame, up to the end of the next incision's plunge.
+  std::unique_ptr<Simulation> sim;
+  if (m.follow_settled_tissue) sim = std::make_unique<Simulation>(scenario);
+  ForceChannel forces;
+  std::size_t fed = 0;
+  long long frame = 0;
+  const double frame_time = 1.0 / scenario.simulation.visual_rate;
+  const auto offsets = [&](const Path& path, double depth, double t0) -> std::unique_ptr<SettledOffsets> {
+    if (!sim) return nullptr;
+    const double until = t0 + m.hold + (m.approach_height + depth) / m.plunge_speed;
+    while (static_cast<double>(frame + 1) * frame_time <= until + 1e-12) {
+      const double end = static_cast<double>(++frame) * frame_time;
+      for (; fed < out.size() && out[fed].t < end; ++fed) sim->on_sample(out[fed]);
+      sim->end_frame(end, forces);
+    }
+    return std::make_unique<SettledOffsets>(*sim, path, depth);
+  };
+  const auto append = [&](const Path& path, double depth) {
+    const long long next = out.empty() ? 0 : std::llround(out.back().t * scenario.device.rate) + 1;
+    const double t0 = static_cast<double>(next) / scenario.device.rate;
+    append_incision(scenario, path, depth, offsets(path, depth, t0).get(), m, t0, next, out);
+  };
+  // The incisions in the task's order, each after the one before has lifted out.
+  for (const Incision& incision : task.incisions)
+    append(Path(incision.path, m.corner_radius), cut_depth(incision, m));
   if (m.cross > 0.0) {
-    const Vec3 a = task.path.front(), b = task.path.back();
+    const Incision& first = task.incisions.front();
+    const Vec3 a = first.path.front(), b = first.path.back();
     const Vec3 middle = 0.5 * (a + b);
     Vec3 across(-(b - a).y(), (b - a).x(), 0.0);
     across = across.squaredNorm() > 0 ? Vec3(across.normalized()) : Vec3::UnitY();
-    const Path second({middle - 0.5 * m.cross * across, middle + 0.5 * m.cross * across}, m.corner_radius);
-    append_incision(scenario, second, m, static_cast<double>(next) / scenario.device.rate, next, out);
+    append(Path({middle - 0.5 * m.cross * across, middle + 0.5 * m.cross * across}, m.corner_radius),
+           cut_depth(first, m));
   }
   return out;
 }
@@ -187,8 +265,9 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
 PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion& m) {
   const Task& task = task_of(scenario);
   std::ostringstream motion;
-  motion << "tilt " << m.tilt * 180.0 / std::numbers::pi << " deg, depth " << cut_depth(task, m)
-         << " m, mean cut speed " << m.cut_speed << " m/s";
+  motion << "tilt " << m.tilt * 180.0 / std::numbers::pi << " deg, depth "
+         << cut_depth(task.incisions.front(), m) << " m, mean cut speed " << m.cut_speed << " m/s";
+  if (task.incisions.size() > 1) motion << ", " << task.incisions.size() << " incisions";
   if (m.tremble > 0.0) motion << ", tremble " << m.tremble << " m at " << m.tremble_frequency << " Hz";
   if (m.pull_back > 0.0) motion << ", pull-back " << m.pull_back << " m";
   if (m.cross > 0.0) motion << ", then a " << m.cross << " m incision across the middle";

@@ -36,6 +36,10 @@ struct IncisionMotion {
   // plunge, cut and lift along a straight path of this length, turned 90 degrees about the middle of
   // the first path's end points (counter-clockwise seen from above).
   double cross = 0.0;  // [m]; 0: none
+  // Aim at the task's line and depth where the settled tissue has carried them (the task is drawn on
+  // the tissue at rest; prestressed skin thins and its surface sinks before the blade arrives), as a
+  // surgeon follows the skin. Off: the path and depth as written, below the plane z of the path.
+  bool follow_settled_tissue = true;
 };
 
 // The samples, at the scenario's haptic rate (device.rate). The skin surface is taken to face +z

@@ -118,12 +118,19 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
             << "  edges cut " << c["edges_cut"] << ", tetrahedra "
             << r.report["mesh"]["initial"]["tetrahedra"] << " -> " << r.report["mesh"]["final"]["tetrahedra"]
             << ", cut surface " << c["cut_surface_area"].get<double>() * 1e6 << " mm^2\n";
-  if (r.report.contains("task"))
-    std::cout << "  task score " << r.report["task"]["score"].get<double>() << " (coverage "
-              << r.report["task"]["coverage"].get<double>() * 100 << " %)\n";
+  if (r.report.contains("task")) {
+    const auto& task = r.report["task"];
+    std::cout << "  task score " << task["score"].get<double>() << " / 100, "
+              << (task["passed"].get<bool>() ? "passed" : "not passed") << "\n";
+    for (const auto& part : task["components"])
+      if (!part["why"].get<std::string>().empty())
+        std::cout << "    " << part["name"].get<std::string>() << ": " << part["why"].get<std::string>()
+                  << "\n";
+  }
   std::cout << "  invariants " << (r.invariants_ok ? "hold" : "BROKEN") << "\n"
-            << "  wrote " << (fs::path(out) / "report.json").string() << " and "
-            << (fs::path(out) / "mesh.vtu").string() << "\n";
+            << "  wrote " << (fs::path(out) / "report.json").string() << ", "
+            << (fs::path(out) / "frames.csv").string() << " and " << (fs::path(out) / "mesh.vtu").string()
+            << "\n";
 #ifdef SCALPEL_HAVE_GUI
   if (pictures) std::cout << "  wrote " << pictures->written().size() << " pictures in " << out << "\n";
 #endif
@@ -293,7 +300,8 @@ int cmd_train(const TrainArgs& a) {
       hi = hi.cwiseMax(p);
     }
     // The blade starts 3 mm above the skin, before the start of the target line when there is one.
-    m.home = scenario.task ? Vec3(scenario.task->path.front() - Vec3(0.003, 0, 0)) : Vec3((lo + hi) / 2);
+    m.home = scenario.task ? Vec3(scenario.task->incisions.front().path.front() - Vec3(0.003, 0, 0))
+                           : Vec3((lo + hi) / 2);
     m.home.z() = hi.z() + 0.003;
     m.workspace_min = lo - Vec3::Constant(0.03);
     m.workspace_max = hi + Vec3::Constant(0.03);
@@ -339,8 +347,8 @@ int cmd_train(const TrainArgs& a) {
   const std::vector<double> periods = session.haptic_periods();
   std::cout << "session on " << scenario_path.string() << ": " << last.status.time << " s\n";
   if (last.status.has_task)
-    std::cout << "  task score " << last.status.task.score << " (coverage " << 100 * last.status.task.coverage
-              << " %)\n";
+    std::cout << "  task score " << last.status.task.score << " / 100, "
+              << (last.status.task.passed ? "passed" : "not passed") << "\n";
   std::cout << "  render frame p50 " << 1e3 * quantile(r.render_seconds, 0.5) << " ms, p99 "
             << 1e3 * quantile(r.render_seconds, 0.99) << " ms over " << r.render_seconds.size() << " frames\n"
             << "  simulation frame p50 " << 1e3 * quantile(session.frame_seconds(), 0.5) << " ms, p99 "
@@ -401,6 +409,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   make_log_cmd->add_option("--pull-back", motion.pull_back, "Pull back and re-cut this far, twice [m]")
       ->check(CLI::NonNegativeNumber);
+  make_log_cmd->add_flag(
+      "!--as-written", motion.follow_settled_tissue,
+      "Aim at the task's path and depth as written, not where the settled tissue carried them");
   make_log_cmd->add_option("--cross", motion.cross, "Then cut again across the middle, this long [m]")
       ->check(CLI::NonNegativeNumber);
 

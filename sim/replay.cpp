@@ -54,18 +54,52 @@ json mesh_json(const MeshSummary& s) {
        {{"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}}}};
 }
 
-// The task's score as report JSON (docs/formats.md).
+// The task's score as report JSON (docs/scoring.md, docs/formats.md).
 json task_json(const TaskScore& t) {
   json j;
-  j["path_length"] = t.path_length;
-  j["tolerance"] = t.tolerance;
-  j["coverage"] = t.coverage;
-  j["cut_points"] = t.cut_points;
-  j["cut_points_outside_tolerance"] = t.outside;
-  j["lateral_deviation"] = {{"mean", t.mean_deviation}, {"max", t.max_deviation}};
-  j["depth"] = {
-      {"max", t.max_depth}, {"min_accepted", t.depth_min}, {"max_accepted", t.depth_max}, {"ok", t.depth_ok}};
   j["score"] = t.score;
+  j["passed"] = t.passed;
+  json components = json::array();
+  for (const ScoreComponent& c : t.components) {
+    json jc;
+    jc["name"] = c.name;
+    jc["value"] = c.value;
+    jc["unit"] = c.unit;
+    jc["threshold"] = c.threshold ? json(*c.threshold) : json(nullptr);
+    jc["pass_when"] = c.threshold ? (c.at_most ? "value <= threshold" : "value >= threshold") : "always";
+    jc["passed"] = c.passed;
+    jc["points"] = c.points;
+    jc["points_max"] = c.points_max;
+    jc["why"] = c.why;
+    components.push_back(jc);
+  }
+  j["components"] = components;
+  json incisions = json::array();
+  for (const IncisionScore& s : t.incisions)
+    incisions.push_back({{"path_length", s.path_length},
+                         {"tolerance", s.tolerance},
+                         {"coverage", s.coverage},
+                         {"cut_points", s.cut_points},
+                         {"cut_points_outside_tolerance", s.cut_points_outside},
+                         {"lateral_deviation",
+                          {{"mean", s.deviation_mean}, {"max", s.deviation_max}, {"frechet", s.frechet}}},
+                         {"depth",
+                          {{"max", s.depth_max},
+                           {"mean", s.depth_mean},
+                           {"in_band", s.depth_in_band},
+                           {"min_accepted", s.depth_min},
+                           {"max_accepted", s.depth_max_accepted}}},
+                         {"bevel_deg", {{"mean", s.bevel_mean_deg}, {"max", s.bevel_max_deg}}},
+                         {"strokes", s.strokes},
+                         {"hesitations", s.hesitations}});
+  j["incisions"] = incisions;
+  j["targets_length"] = t.targets_length;
+  j["time_in_tissue"] = t.time_in_tissue;
+  j["path_in_tissue"] = t.path_in_tissue;
+  j["hand_force_while_cutting"] = {{"max", t.force_max}, {"mean", t.force_mean}};
+  j["cut_area"] = t.cut_area;
+  j["collateral_area"] = t.collateral_area;
+  j["protected_area"] = t.protected_area;
   return j;
 }
 
@@ -97,13 +131,14 @@ void write_mesh_vtu(const Simulation& sim, const std::filesystem::path& path) {
   write_vtu(m, path.string(), data);
 }
 
-// The lateral gape of the wound at the tissue surface (sim/wound.hpp), across the task's path.
+// The lateral gape of the wound at the tissue surface (sim/wound.hpp), across the task's first
+// incision.
 json wound_json(const Simulation& sim, const Scenario& scenario) {
   std::vector<Vec3> path;
   double band = 0;
   if (scenario.task) {
-    path = scenario.task->path;
-    band = kWoundBand * scenario.task->tolerance;
+    path = scenario.task->incisions.front().path;
+    band = kWoundBand * scenario.task->incisions.front().tolerance;
   }
   const WoundGape g = sim.wound_gape(path, band, kWoundWindow);
   json profile = json::array();
@@ -169,7 +204,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   }
   Simulation sim(scenario);
   const MeshSummary initial = summarize(sim.mesh());
-  const double surface_z = initial.box_max.z();
+  // The time series beside the report (docs/formats.md, frames.csv): one row per frame, the tool
+  // at the frame's last sample.
+  std::filesystem::create_directories(options.out_dir);
+  std::ofstream series(options.out_dir / "frames.csv");
+  series << "frame,t,tip_x,tip_y,tip_z,in_tissue,depth,material_depth,bevel_deg,incision,path_s,deviation,"
+            "speed,hand_force,"
+            "cutting,edges_cut\n";
+  series.precision(9);
+  std::size_t edges_before = 0;
 
   // The spine: mock device -> haptic loop -> queue -> simulation, on the virtual clock.
   MockDevice device(log, verbatim ? MockDevice::Playback::Verbatim : MockDevice::Playback::Interpolate);
@@ -212,6 +255,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       }
     }
     sim.end_frame(end, forces);
+    {
+      const ToolTracePoint& p = sim.scorer().last();
+      const std::size_t edges = sim.cutter().totals().edges_cut;
+      series << k << ',' << end << ',' << p.tip.x() << ',' << p.tip.y() << ',' << p.tip.z() << ','
+             << (p.in_tissue ? 1 : 0) << ',' << p.depth << ',' << p.material_depth << ',' << p.bevel_deg
+             << ',' << p.incision << ',' << p.path_s << ',' << p.deviation << ',' << p.speed << ',' << p.force
+             << ',' << (edges > edges_before ? 1 : 0) << ',' << edges - edges_before << '\n';
+      edges_before = edges;
+    }
     frame_seconds.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
     if (options.on_frame) options.on_frame(sim, k, k == frames);
@@ -340,7 +392,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
          {{"max", force_max},
           {"mean_in_contact", force_sum / std::max<double>(1.0, static_cast<double>(frames_in_contact))}}}};
   }
-  if (scenario.task) report["task"] = task_json(score_task(*scenario.task, cutter.cut_points(), surface_z));
+  if (const auto score = sim.task_score()) report["task"] = task_json(*score);
   // Tissue steps right after a cut (the mesh changed since the step before) and the others.
   std::vector<double> after_cut, without_cut;
   for (std::size_t k = 0; k < sim.tissue_step_seconds().size(); ++k)
@@ -359,6 +411,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     out << report.dump(2) << '\n';
     if (!out) throw std::runtime_error("cannot write " + (options.out_dir / "report.json").string());
   }
+  series.flush();
+  if (!series) throw std::runtime_error("cannot write " + (options.out_dir / "frames.csv").string());
   write_mesh_vtu(sim, options.out_dir / "mesh.vtu");
   return {report, check.ok()};
 }

@@ -61,6 +61,12 @@ std::string join(const std::vector<std::string>& items) {
   return s;
 }
 
+std::string region_list(const RegionIds& names) {
+  std::vector<std::string> n;
+  for (const auto& [name, id] : names) n.push_back(name + " (" + std::to_string(id) + ")");
+  return n.empty() ? std::string("none named") : join(n);
+}
+
 class Parser;
 
 // The entries of a YAML map, checked for duplicate and (with only()) unknown keys.
@@ -204,6 +210,8 @@ class Parser {
   void device(const Value& v, DeviceSettings& out) const;
   void simulation(const Value& v, SimulationSettings& out) const;
   Task task(const Value& v) const;
+  Incision incision(const Map& m, const Value& v) const;
+  void pass(const Value& v, PassThresholds& out) const;
   void check_against_mesh(const Scenario& s, const Map& top) const;
 
  private:
@@ -513,10 +521,8 @@ void Parser::simulation(const Value& v, SimulationSettings& out) const {
   if (const auto x = m.get("cut_recursion_depth")) out.cut_recursion_depth = in_range(*x, integer(*x), 0, 32);
 }
 
-Task Parser::task(const Value& v) const {
-  const Map m(*this, v);
-  m.only({"path", "tolerance", "depth"});
-  Task t;
+Incision Parser::incision(const Map& m, const Value& v) const {
+  Incision t;
   t.where = location(v.key_mark);
   const Value vpath = m.require("path");
   const auto points = list(vpath, "a list of points [x, y, z]");
@@ -533,6 +539,64 @@ Task Parser::task(const Value& v) const {
   t.depth_max = depth[1];
   if (!(depth[0] >= 0.0 && depth[0] < depth[1] && depth[1] <= kMaxLength))
     fail(vdepth, "expected [min, max] with 0 <= min < max <= " + format(kMaxLength) + " [m]");
+  return t;
+}
+
+void Parser::pass(const Value& v, PassThresholds& out) const {
+  const Map m(*this, v);
+  m.only({"score", "coverage", "depth_in_band", "bevel_deg", "strokes", "economy", "time", "force",
+          "force_in_band", "collateral"});
+  const auto fraction = [&](const Value& x) {
+    const double f = number(x);
+    check(x, f >= 0.0 && f <= 1.0, "a fraction 0 to 1");
+    return f;
+  };
+  if (const auto x = m.get("score")) {
+    out.score = number(*x);
+    check(*x, out.score >= 0.0 && out.score <= 100.0, "0 to 100");
+  }
+  if (const auto x = m.get("coverage")) out.coverage = fraction(*x);
+  if (const auto x = m.get("depth_in_band")) out.depth_in_band = fraction(*x);
+  if (const auto x = m.get("bevel_deg")) out.bevel_deg = positive(*x, 90.0);
+  if (const auto x = m.get("strokes")) out.strokes = in_range(*x, integer(*x), 1, 1000);
+  if (const auto x = m.get("economy")) {
+    out.economy = number(*x);
+    check(*x, out.economy >= 1.0, "a ratio >= 1");
+  }
+  if (const auto x = m.get("time")) out.time = positive(*x);
+  if (const auto x = m.get("force")) {
+    const auto f = vector<2>(*x);
+    if (!(f[0] >= 0.0 && f[0] < f[1])) fail(*x, "expected [min, max] with 0 <= min < max [N]");
+    out.force_min = f[0];
+    out.force_max = f[1];
+  }
+  if (const auto x = m.get("force_in_band")) out.force_in_band = fraction(*x);
+  if (const auto x = m.get("collateral")) out.collateral = fraction(*x);
+}
+
+Task Parser::task(const Value& v) const {
+  const Map m(*this, v);
+  m.only({"path", "tolerance", "depth", "incisions", "protected", "pass"});
+  Task t;
+  t.where = location(v.key_mark);
+  if (const auto x = m.get("incisions")) {
+    if (m.get("path") || m.get("tolerance") || m.get("depth"))
+      fail(*x, "give either `incisions` or one incision's `path`, `tolerance` and `depth`, not both");
+    const auto items = list(*x, "a list of incisions {path, tolerance, depth}");
+    if (items.empty()) fail(*x, "expected at least one incision");
+    for (const Value& item : items) {
+      const Map im(*this, item);
+      im.only({"path", "tolerance", "depth"});
+      t.incisions.push_back(incision(im, item));
+    }
+  } else {
+    t.incisions.push_back(incision(m, v));
+  }
+  if (const auto x = m.get("protected")) {
+    t.protected_where = location(x->key_mark);
+    for (const Value& r : list(*x, "a list of region names")) t.protected_regions.push_back(string(r));
+  }
+  if (const auto x = m.get("pass")) pass(*x, t.pass);
   return t;
 }
 
@@ -556,20 +620,31 @@ void Parser::check_against_mesh(const Scenario& s, const Map& top) const {
   }
   const double tol = 1e-9 * (hi - lo).norm();
   const Map task(*this, *top.get("task"));
-  const auto points = list(task.require("path"), "");
-  for (std::size_t i = 0; i < s.task->path.size(); ++i) {
-    const Vec3& p = s.task->path[i];
-    if (((p - lo).array() < -tol).any() || ((p - hi).array() > tol).any()) {
-      std::ostringstream msg;
-      msg << "point [" << p.x() << ", " << p.y() << ", " << p.z() << "] lies outside the mesh, which spans ["
-          << lo.x() << ", " << hi.x() << "] x [" << lo.y() << ", " << hi.y() << "] x [" << lo.z() << ", "
-          << hi.z() << "] [m]";
-      fail(points[i], msg.str());
+  const auto incisions = task.get("incisions");
+  const auto items = incisions ? list(*incisions, "") : std::vector<Value>{*top.get("task")};
+  for (std::size_t k = 0; k < s.task->incisions.size(); ++k) {
+    const Incision& in = s.task->incisions[k];
+    const Map im(*this, items[k]);
+    const auto points = list(im.require("path"), "");
+    for (std::size_t i = 0; i < in.path.size(); ++i) {
+      const Vec3& p = in.path[i];
+      if (((p - lo).array() < -tol).any() || ((p - hi).array() > tol).any()) {
+        std::ostringstream msg;
+        msg << "point [" << p.x() << ", " << p.y() << ", " << p.z()
+            << "] lies outside the mesh, which spans [" << lo.x() << ", " << hi.x() << "] x [" << lo.y()
+            << ", " << hi.y() << "] x [" << lo.z() << ", " << hi.z() << "] [m]";
+        fail(points[i], msg.str());
+      }
     }
+    if (in.depth_max > hi.z() - lo.z())
+      fail(im.require("depth"), "maximum depth " + format(in.depth_max) + " exceeds the mesh height " +
+                                    format(hi.z() - lo.z()) + " [m]");
   }
-  if (s.task->depth_max > hi.z() - lo.z())
-    fail(*task.get("depth"), "maximum depth " + format(s.task->depth_max) + " exceeds the mesh height " +
-                                 format(hi.z() - lo.z()) + " [m]");
+  const RegionIds names = generated_region_ids(s);
+  if (const auto x = task.get("protected"))
+    for (const Value& r : list(*x, ""))
+      if (!names.contains(string(r)))
+        fail(r, "no region '" + string(r) + "' in the mesh; its regions: " + region_list(names));
 }
 
 Scenario Parser::parse(const std::string& text) const {
@@ -605,12 +680,6 @@ Scenario Parser::parse(const std::string& text) const {
   s.materials_where = location(top.require("materials").key_mark);
   check_against_mesh(s, top);
   return s;
-}
-
-std::string region_list(const RegionIds& names) {
-  std::vector<std::string> n;
-  for (const auto& [name, id] : names) n.push_back(name + " (" + std::to_string(id) + ")");
-  return n.empty() ? std::string("none named") : join(n);
 }
 
 }  // namespace

@@ -111,13 +111,38 @@ struct SimulationSettings {
   int cut_recursion_depth = 8;
 };
 
-// The target incision, used for scoring.
-struct Task {
-  std::vector<Vec3> path;    // [m] polyline on the tissue surface, >= 2 points
-  double tolerance = 0.002;  // [m] allowed distance of the cut from the path
-  double depth_min = 0.0;    // [m] accepted cut depth below the surface
+// One target incision, on the tissue surface in rest coordinates.
+struct Incision {
+  std::vector<Vec3> path;    // [m] polyline, >= 2 points
+  double tolerance = 0.002;  // [m] allowed lateral distance of the cut from the path
+  double depth_min = 0.0;    // [m] accepted depth of the cut below the tissue surface
   double depth_max = 0.0;    // [m]
   SourceLocation where;
+};
+
+// What the score requires to pass (docs/scoring.md, where each one is defined).
+struct PassThresholds {
+  double score = 70.0;         // [0, 100] at least
+  double coverage = 0.95;      // [-] of each target's length cut, at least
+  double depth_in_band = 0.9;  // [-] of each incision's length cut within its depth band, at least
+  double bevel_deg = 15.0;     // [deg] mean tilt of the blade's plane from the surface normal, at most
+  int strokes = 2;             // per incision, at most
+  double economy = 2.0;        // tool path in the tissue over the targets' length, at most
+  std::optional<double> time;  // [s] with the blade in the tissue, at most; none: not a condition
+  double force_min = 0.0;      // [N] band of the force on the hand while cutting
+  double force_max = 5.0;      // [N]
+  double force_in_band = 0.9;  // [-] of the time spent cutting, at least
+  double collateral = 0.10;    // [-] of the cut area outside every target's band, at most
+};
+
+// The exercise, used for scoring: one or more incisions, regions the blade must not cut into, and the
+// thresholds to pass.
+struct Task {
+  std::vector<Incision> incisions;  // in the order they are to be made
+  std::vector<std::string> protected_regions;
+  PassThresholds pass;
+  SourceLocation where;
+  SourceLocation protected_where;  // of the `protected` key
 };
 
 struct Scenario {

@@ -142,9 +142,8 @@ void Session::publish_frame(double frame_seconds) {
   s.playback_ended =
       playback_ && playback_->position() >= playback_->duration() && hs.samples_pushed == popped_;
   s.has_task = scenario_.task.has_value();
-  // The skin's top: the highest rest point of the uncut mesh, as the report measures depth.
-  if (s.has_task)
-    s.task = score_task(*scenario_.task, sim_->cutter().cut_points(), f.snapshot.bounds_max.z());
+  if (s.has_task) s.task = *sim_->task_score();
+  s.tip = sim_->scorer().last();
   s.recorded = writer_ ? writer_->samples_written() : 0;
   frames_.publish();
   if (on_publish_) on_publish_();

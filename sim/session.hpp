@@ -49,6 +49,7 @@ struct SessionStatus {
   bool playback_ended = false;  // a played-back log has run out
   bool has_task = false;
   TaskScore task;
+  ToolTracePoint tip;        // the tip at the frame's last sample: in the tissue, its depth
   std::size_t recorded = 0;  // samples written to the recording of this attempt
 };
 

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
+#include <set>
+
+#include "base/input_error.hpp"
 
 namespace scalpel {
 
@@ -33,6 +37,25 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   CutOptions cut_options;
   cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
   cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
+  surface_ = std::make_unique<SurfaceProbe>(mesh_);
+  update_bounds();
+  {
+    std::set<int> protected_ids;
+    const Task task = scenario_.task.value_or(Task{});
+    for (const std::string& name : task.protected_regions) {
+      const auto it = m.regions.find(name);
+      if (it == m.regions.end()) {
+        std::string names;
+        for (const auto& [n, id] : m.regions) names += (names.empty() ? "" : ", ") + n;
+        const SourceLocation& w = scenario_.task->protected_where;
+        throw InputError(
+            scenario_.file.string(), w.line, w.column, "task.protected",
+            "no region '" + name + "' in the mesh; its regions: " + (names.empty() ? "none" : names));
+      }
+      protected_ids.insert(it->second);
+    }
+    scorer_ = std::make_unique<TaskScorer>(task, std::move(protected_ids));
+  }
 
   // Tissue (docs/tissue.md): materials by region id, the scenario's solver, the fixed boundary.
   const std::map<int, Material> by_region = resolve_materials(scenario_, m.regions, mesh_);
@@ -55,6 +78,20 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
 
 Simulation::~Simulation() = default;
 
+void Simulation::update_bounds() {
+  bounds_lo_ = Vec3::Constant(std::numeric_limits<double>::infinity());
+  bounds_hi_ = -bounds_lo_;
+  for (const NodeId n : mesh_.nodes()) {
+    bounds_lo_ = bounds_lo_.cwiseMin(mesh_.position(n));
+    bounds_hi_ = bounds_hi_.cwiseMax(mesh_.position(n));
+  }
+}
+
+std::optional<TaskScore> Simulation::task_score() const {
+  if (!scenario_.task) return std::nullopt;
+  return scorer_->score(*cutter_, mesh_);
+}
+
 BladePose Simulation::blade(const ToolSample& s) const {
   const DeviceMapping& map = scenario_.device.mapping;
   const Vec3 position = map.rotation * (map.scale * s.position) + map.offset;
@@ -66,9 +103,31 @@ BladePose Simulation::blade(const ToolSample& s) const {
 
 void Simulation::on_sample(const ToolSample& s) {
   const auto start = std::chrono::steady_clock::now();
-  cutter_->step(blade(s));
+  const BladePose pose = blade(s);
+  const CutStepStats stats = cutter_->step(pose);
   cut_seconds_.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   hand_over_cut();
+  {
+    // Where the tip is under the skin (a probe of the surface only when it is near the tissue) and
+    // where in the tissue (rest coordinates), for the score.
+    std::optional<SurfaceHit> hit;
+    if (((pose.tip - bounds_lo_).array() >= 0).all() && ((pose.tip - bounds_hi_).array() <= 0).all())
+      hit = surface_->above(mesh_, pose.tip, pose.back);
+    std::optional<Vec3> rest_tip;
+    std::optional<double> material_depth;
+    if (hit)
+      if (const auto at = cutter_->locate(pose.tip, kBladeHalfThickness)) {
+        rest_tip = Vec3::Zero();
+        for (int i = 0; i < 4; ++i) *rest_tip += at->weights[i] * mesh_.rest(at->corners[i]);
+        if (const auto rest_hit =
+                surface_->above(mesh_.rest_positions(), *rest_tip, *rest_tip + pose.back - pose.tip))
+          material_depth = rest_hit->depth;
+      }
+    // The hand pushes against the tissue's resistance to the blade (what a device renders, before
+    // its own force limit); the last frame's contact sets it.
+    scorer_->on_sample(s.t, pose, stats, hit, rest_tip, material_depth,
+                       scenario_.tool.cutting_resistance * contact_.length);
+  }
   last_ = s;
   ++samples_;
 }
@@ -190,6 +249,7 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue).
   cutter_->follow_tissue();
   hand_over_cut();
+  update_bounds();
   // The force model the haptic loop renders until the next frame: the resistance of the blade's
   // edge inside the tissue (see simulation.hpp). The coupling spring is off (k_c = 0).
   ForceModel model;

@@ -29,6 +29,8 @@
 #include "mesh/mesh.hpp"
 #include "sim/scenario.hpp"
 #include "sim/snapshot.hpp"
+#include "sim/surface_probe.hpp"
+#include "sim/task_score.hpp"
 #include "sim/wound.hpp"
 
 namespace scalpel {
@@ -95,6 +97,11 @@ class Simulation {
   };
   [[nodiscard]] const std::vector<SeveredPiece>& severed_pieces() const { return severed_; }
 
+  // The score of the scenario's task so far (docs/scoring.md); none without a task.
+  [[nodiscard]] std::optional<TaskScore> task_score() const;
+  // The task scorer (with no incisions without a task): its view of the last tool sample.
+  [[nodiscard]] const TaskScorer& scorer() const { return *scorer_; }
+
   // The tool's push on the tissue in the last frame (see above).
   struct ToolContact {
     Vec3 force = Vec3::Zero();     // [N] total on the tissue
@@ -113,6 +120,8 @@ class Simulation {
  private:
   // Sets the tissue's external forces from the blade's motion over the frame (see above).
   void push_tissue();
+  // The box of the current positions (bounds_lo_, bounds_hi_).
+  void update_bounds();
   // Hands the cutter's last changes to the tissue model.
   void hand_over_cut();
   // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).
@@ -124,6 +133,9 @@ class Simulation {
   std::unique_ptr<WoundMeter> wound_meter_;  // the outer surface of the uncut mesh
   std::unique_ptr<SnapshotBuilder> snapshots_;
   std::unique_ptr<CutEngine> cutter_;
+  std::unique_ptr<SurfaceProbe> surface_;
+  Vec3 bounds_lo_ = Vec3::Zero(), bounds_hi_ = Vec3::Zero();  // current positions, as of the last frame
+  std::unique_ptr<TaskScorer> scorer_;
   std::unique_ptr<TissueModel> tissue_;
   double tissue_time_ = 0.0;  // [s] simulated tissue time
   double frame_time_ = 0.0;   // [s] the end of the last frame

@@ -123,12 +123,9 @@ void SnapshotBuilder::fill(const Simulation& sim, bool with_edges, FrameSnapshot
     out.blade_back = b.back;
     out.blade_tip = b.tip;
   }
-  out.target_path.clear();
-  out.target_tolerance = 0.0;
-  if (const auto& task = sim.scenario().task) {
-    out.target_path = task->path;
-    out.target_tolerance = task->tolerance;
-  }
+  out.targets.clear();
+  if (const auto& task = sim.scenario().task)
+    for (const Incision& in : task->incisions) out.targets.push_back({in.path, in.tolerance});
 }
 
 }  // namespace scalpel

@@ -42,9 +42,12 @@ struct FrameSnapshot {
   bool has_blade = false;
   Vec3 blade_back = Vec3::Zero(), blade_tip = Vec3::Zero();
 
-  // The instructor's target incision (the scenario's task), empty without one.
-  std::vector<Vec3> target_path;
-  double target_tolerance = 0.0;  // [m]
+  // The instructor's target incisions (the scenario's task), empty without one.
+  struct Target {
+    std::vector<Vec3> path;
+    double tolerance = 0.0;  // [m]
+  };
+  std::vector<Target> targets;
 
   // Bounding box of the uncut mesh's rest positions, for framing views [m].
   Vec3 bounds_min = Vec3::Zero(), bounds_max = Vec3::Zero();

@@ -101,8 +101,8 @@ std::vector<View> replay_views(const FrameSnapshot& s, double aspect) {
   // The target's middle and direction; without a task, the patch's top centre along x.
   Vec3 focus(centre.x(), centre.y(), hi.z()), along = Vec3::UnitX();
   double length = extent.x() / 2;
-  if (s.target_path.size() >= 2) {
-    const Vec3 a = s.target_path.front(), b = s.target_path.back();
+  if (!s.targets.empty()) {
+    const Vec3 a = s.targets.front().path.front(), b = s.targets.front().path.back();
     focus = (a + b) / 2;
     along = Vec3(b.x() - a.x(), b.y() - a.y(), 0.0);
     length = along.norm();

@@ -177,11 +177,12 @@ void Renderer::build_overlays(const FrameSnapshot& s, const RenderOptions& o) {
     b.z() += kOverlayLift;
     quad(a - side, b - side, b + side, a + side, colour);
   };
-  if (o.target && s.target_path.size() >= 2) {
+  for (const FrameSnapshot::Target& target : s.targets) {
+    if (!o.target || target.path.size() < 2) continue;
     const auto colour = rgba(Palette::kTarget);
-    const double tol = s.target_tolerance;
-    for (std::size_t i = 0; i + 1 < s.target_path.size(); ++i) {
-      const Vec3 a = s.target_path[i], b = s.target_path[i + 1];
+    const double tol = target.tolerance;
+    for (std::size_t i = 0; i + 1 < target.path.size(); ++i) {
+      const Vec3 a = target.path[i], b = target.path[i + 1];
       const double length = (b - a).head<2>().norm();
       if (length == 0.0) continue;
       const Vec3 d = (b - a) / length;
@@ -192,9 +193,9 @@ void Renderer::build_overlays(const FrameSnapshot& s, const RenderOptions& o) {
       ribbon(a - side, b - side, kLineWidth, colour);
     }
     // The incision's ends, across the band.
-    for (const std::size_t i : {std::size_t{0}, s.target_path.size() - 1}) {
-      const Vec3 p = s.target_path[i];
-      const Vec3 d = (s.target_path[i == 0 ? 1 : i] - s.target_path[i == 0 ? 0 : i - 1]).normalized();
+    for (const std::size_t i : {std::size_t{0}, target.path.size() - 1}) {
+      const Vec3 p = target.path[i];
+      const Vec3 d = (target.path[i == 0 ? 1 : i] - target.path[i == 0 ? 0 : i - 1]).normalized();
       const Vec3 side = Vec3(-d.y(), d.x(), 0.0).normalized() * tol;
       ribbon(p - side, p + side, kLineWidth, colour);
     }

@@ -300,16 +300,21 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       ImGui::TextDisabled("Your incision");
       const TaskScore& t = st.task;
       text_row("Score", "%.0f / 100", t.score);
-      text_row("Along the line", "%.0f %%", 100.0 * t.coverage);
-      ImGui::TextUnformatted("Off the line");
-      ImGui::SameLine(170);
-      ImGui::TextColored(
-          t.mean_deviation <= t.tolerance ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.4f, 0.4f, 1),
-          "%.2f mm (allowed %.1f)", 1e3 * t.mean_deviation, 1e3 * t.tolerance);
-      ImGui::TextUnformatted("Depth");
-      ImGui::SameLine(170);
-      ImGui::TextColored(t.depth_ok ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.8f, 0.3f, 1),
-                         "%.1f mm (aim %.1f-%.1f)", 1e3 * t.max_depth, 1e3 * t.depth_min, 1e3 * t.depth_max);
+      // The components as the report gives them (docs/scoring.md): green when they pass.
+      for (const ScoreComponent& c : t.components) {
+        if (c.points_max == 0 && !c.threshold) continue;
+        ImGui::TextUnformatted(c.name.c_str());
+        ImGui::SameLine(170);
+        const ImVec4 colour = c.passed ? ImVec4(0.5f, 1, 0.5f, 1) : ImVec4(1, 0.6f, 0.3f, 1);
+        const char* unit = c.unit == "count" || c.unit == "ratio" ? "" : c.unit.c_str();
+        if (c.threshold)
+          ImGui::TextColored(colour, "%.3g %s (%s %.3g)", c.value, unit, c.at_most ? "max" : "min",
+                             *c.threshold);
+        else
+          ImGui::TextColored(colour, "%.3g %s", c.value, unit);
+        if (!c.why.empty() && ImGui::IsItemHovered()) ImGui::SetTooltip("%s", c.why.c_str());
+      }
+      if (st.tip.in_tissue) text_row("Tip depth now", "%.2f mm", 1e3 * st.tip.depth);
     }
     ImGui::Separator();
     ImGui::TextDisabled("Hand and machine");

@@ -59,6 +59,13 @@ TEST_CASE("log generator: the bundled log is reproducible byte for byte") {
   fs::remove_all(dir);
 }
 
+// The motion along the task as written, without following the settled tissue: for checks of the
+// trajectory's geometry.
+IncisionMotion as_written(IncisionMotion m = {}) {
+  m.follow_settled_tissue = false;
+  return m;
+}
+
 // The second bundled log: the same incision with hand tremor, two pull-backs and re-cuts.
 IncisionMotion trembling_motion() {
   IncisionMotion m;
@@ -82,7 +89,7 @@ TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible 
   CHECK(read_bytes(out) == bundled_bytes);
   // The blade runs backwards along the path while it is in the tissue (the pull-backs), and the
   // tremor moves it across the path.
-  const auto made = generate_task_log(s, trembling_motion());
+  const auto made = generate_task_log(s, as_written(trembling_motion()));
   int reversals = 0;
   double across = 0;
   for (std::size_t k = 1; k < made.size(); ++k) {
@@ -99,23 +106,29 @@ TEST_CASE("log generator: the bundled crossing log is reproducible and cuts acro
   const Scenario s =
       load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision_cross.yaml");
   CHECK(s.simulation.cut_recursion_depth == 8);
-  IncisionMotion m;
-  m.cross = 0.012;
+  REQUIRE(s.task->incisions.size() == 2);
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_cross";
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path out = dir / "skin_incision_cross.csv";
-  write_task_log(s, out.string(), m);
-  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision_cross.yaml --cross 0.012
+  write_task_log(s, out.string());
+  // Regenerate with: scalpelsim make-log config/scenarios/skin_incision_cross.yaml
   // --out config/logs/skin_incision_cross.csv
   const std::string bundled_bytes =
       read_bytes(fs::path(SCALPEL_SOURCE_DIR) / "config/logs/skin_incision_cross.csv");
   REQUIRE_FALSE(bundled_bytes.empty());
   CHECK(read_bytes(out) == bundled_bytes);
+  // The task's two incisions are the first incision and a second across its middle (--cross) made
+  // one after the other.
+  IncisionMotion cross = as_written();
+  cross.cross = 0.012;
+  const auto two = generate_task_log(s, as_written());
+  const auto made = generate_task_log(bundled(), cross);
+  REQUIRE(made.size() == two.size());
+  for (std::size_t k = 0; k < made.size(); ++k) CHECK(made[k].position == two[k].position);
   // The first incision as without --cross, then the tool leaves the tissue and draws a second one
   // along y through the middle of the first, at the same depth.
-  const auto single = generate_task_log(s);
-  const auto made = generate_task_log(s, m);
+  const auto single = generate_task_log(bundled(), as_written());
   REQUIRE(made.size() > single.size());
   for (std::size_t k = 0; k < single.size(); ++k) {
     CHECK(made[k].t == single[k].t);
@@ -160,8 +173,14 @@ TEST_CASE("log generator: the bundled log is valid and performs the task") {
     CHECK(made[k].position == log[k].position);
     CHECK(made[k].orientation.coeffs() == log[k].orientation.coeffs());
   }
+  // It follows the settled tissue: within half a millimetre of the task as written, which the
+  // checks below take.
+  const auto written = generate_task_log(s, as_written());
+  REQUIRE(written.size() == log.size());
+  for (std::size_t k = 0; k < log.size(); ++k) CHECK((written[k].position - log[k].position).norm() < 0.5e-3);
+  log = written;
 
-  const Task& task = *s.task;
+  const Incision& task = s.task->incisions.front();
   const Vec3 start = task.path.front(), end = task.path.back();
   const Vec3 dir = (end - start).normalized();
   CHECK(tip_of(s, log.front()).z() > 0.002);  // starts above the surface
@@ -202,8 +221,8 @@ TEST_CASE("log generator: the bundled log is valid and performs the task") {
 
 TEST_CASE("log generator: a polyline task turns the blade smoothly") {
   Scenario s = bundled();
-  s.task->path = {Vec3(-0.008, -0.004, 0), Vec3(0.0, -0.004, 0), Vec3(0.004, 0.004, 0)};
-  const auto log = generate_task_log(s);
+  s.task->incisions.front().path = {Vec3(-0.008, -0.004, 0), Vec3(0.0, -0.004, 0), Vec3(0.004, 0.004, 0)};
+  const auto log = generate_task_log(s, as_written());
   double max_step = 0.0;
   for (std::size_t k = 1; k < log.size(); ++k)
     max_step = std::max(max_step, log[k].orientation.angularDistance(log[k - 1].orientation));

@@ -121,9 +121,11 @@ TEST_CASE("scenario: the bundled skin incision loads") {
   }
 
   REQUIRE(s.task.has_value());
-  CHECK(s.task->path.size() == 2);
-  CHECK((s.task->path[1] - s.task->path[0]).norm() == doctest::Approx(0.02));
-  CHECK(s.task->depth_max <= 0.003);  // not into the fat
+  REQUIRE(s.task->incisions.size() == 1);
+  const Incision& in = s.task->incisions.front();
+  CHECK(in.path.size() == 2);
+  CHECK((in.path[1] - in.path[0]).norm() == doctest::Approx(0.02));
+  CHECK(in.depth_max <= 0.003);  // not into the fat
   CHECK(s.device.kind == DeviceKind::Mock);
   CHECK(s.device.rate == 1000.0);
   REQUIRE(s.log.has_value());
@@ -157,8 +159,36 @@ TEST_CASE("scenario: optional sections take their defaults") {
   CHECK(s.materials[0].where.line == 10);
   CHECK(s.materials[0].material.density == Material{}.density);
   CHECK(s.materials[0].material.prestress == 1.0);
-  CHECK(s.task->tolerance == 0.002);
+  CHECK(s.task->incisions.front().tolerance == 0.002);
+  CHECK(s.task->pass.coverage == 0.95);
+  CHECK(s.task->protected_regions.empty());
   CHECK_FALSE(s.log.has_value());
+}
+
+TEST_CASE("scenario: a task of several incisions, with protected regions and pass thresholds") {
+  const std::string text =
+      without_lines(18, 20) +
+      "task:\n"
+      "  incisions:\n"
+      "    - {path: [[-0.005, 0, 0], [0.005, 0, 0]], tolerance: 0.001, depth: [0.0005, 0.001]}\n"
+      "    - {path: [[0, -0.004, 0], [0, 0.004, 0]], depth: [0.0002, 0.0008]}\n"
+      "  protected: [bottom]\n"
+      "  pass: {score: 80, coverage: 0.9, strokes: 1, time: 12, force: [0.1, 3]}\n";
+  const Scenario s = parse_scenario(text, "two.yaml", "/somewhere");
+  REQUIRE(s.task);
+  REQUIRE(s.task->incisions.size() == 2);
+  CHECK(s.task->incisions[0].tolerance == 0.001);
+  CHECK(s.task->incisions[1].tolerance == 0.002);  // the default
+  CHECK(s.task->incisions[1].path[1] == Vec3(0, 0.004, 0));
+  CHECK(s.task->incisions[1].depth_max == 0.0008);
+  CHECK(s.task->protected_regions == std::vector<std::string>{"bottom"});
+  CHECK(s.task->pass.score == 80);
+  CHECK(s.task->pass.coverage == 0.9);
+  CHECK(s.task->pass.strokes == 1);
+  CHECK(s.task->pass.time == 12.0);
+  CHECK(s.task->pass.force_min == 0.1);
+  CHECK(s.task->pass.force_max == 3.0);
+  CHECK(s.task->pass.depth_in_band == PassThresholds{}.depth_in_band);
 }
 
 TEST_CASE("scenario: every section parsed") {
@@ -263,6 +293,12 @@ TEST_CASE("scenario: each schema error names the file, line, column and key path
        "task.path[1]", "outside the mesh"},
       {"task too short", with_line(19, "  path: [[0, 0, 0]]"), 19, 9, "task.path", "at least 2 points"},
       {"depth range reversed", with_line(20, "  depth: [0.001, 0.0005]"), 20, 10, "task.depth", "min < max"},
+      {"protected region not in the mesh", with_line(20, "  depth: [0.0005, 0.001]\n  protected: [bone]"), 21,
+       15, "task.protected[0]", "no region 'bone'"},
+      {"pass fraction above one", with_line(20, "  depth: [0.0005, 0.001]\n  pass: {coverage: 1.5}"), 21, 20,
+       "task.pass.coverage", "fraction"},
+      {"incisions and a path", with_line(20, "  depth: [0.0005, 0.001]\n  incisions: []"), 21, 14,
+       "task.incisions", "not both"},
       {"unknown side", with_line(17, "  - {side: left}"), 17, 12, "fixed[0].side", "unknown value 'left'"},
       {"empty selector", with_line(17, "  - {}"), 17, 5, "fixed[0]", "expected 'side' or 'box'"},
       {"unknown device", base_text() + "device: {kind: joystick}\n", 21, 16, "device.kind", "unknown value"},

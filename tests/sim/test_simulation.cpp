@@ -480,9 +480,9 @@ TEST_CASE("the lips part at the skin up to where the blade lifted out of tissue 
     sim.on_sample(s);
     if (++samples % 16 == 0) sim.end_frame(t += 1.0 / 60, forces);
   }
-  const auto& path = sc.task->path;
+  const auto& path = sc.task->incisions.front().path;
   const double length = (path.back() - path.front()).norm();
-  const WoundGape g = sim.wound_gape(path, 3 * sc.task->tolerance, 0.004);
+  const WoundGape g = sim.wound_gape(path, 3 * sc.task->incisions.front().tolerance, 0.004);
   std::size_t inside = 0;
   for (const WoundGape::Point& p : g.profile) {
     if (p.s < 1e-3 || p.s > length - 1e-3) continue;  // the cut's ends

@@ -53,8 +53,9 @@ TEST_CASE("an uncut patch's snapshot is all skin: the patch's outer surface, and
   CHECK(s.edges.size() == 2 * (grid + diagonals));
   CHECK(s.bounds_min.isApprox(Vec3(-0.020, -0.015, -0.008)));
   CHECK(s.bounds_max.isApprox(Vec3(0.020, 0.015, 0.0)));
-  REQUIRE(s.target_path.size() == 2);
-  CHECK(s.target_tolerance == doctest::Approx(0.001));
+  REQUIRE(s.targets.size() == 1);
+  REQUIRE(s.targets[0].path.size() == 2);
+  CHECK(s.targets[0].tolerance == doctest::Approx(0.001));
   CHECK_FALSE(s.has_blade);
 }
 

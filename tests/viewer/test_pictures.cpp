@@ -97,7 +97,7 @@ TEST_CASE("the bundled replay's pictures show the gaping wound along the target 
   const auto world_y = [&](int py) { return -(py + 0.5 - origin.y()) * metres_per_pixel; };
 
   // The target path runs along y = 0 from x = -10 to 10 mm.
-  const Task& task = *r.scenario.task;
+  const Incision& task = r.scenario.task->incisions.front();
   REQUIRE(task.path.size() == 2);
   REQUIRE(task.path[0].y() == 0.0);
   REQUIRE(task.path[1].y() == 0.0);

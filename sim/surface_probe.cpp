@@ -1,0 +1,50 @@
+#include "sim/surface_probe.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "mesh/topology.hpp"
+
+namespace scalpel {
+
+SurfaceProbe::SurfaceProbe(const TetMesh& uncut) {
+  for (const BoundaryFace& f : boundary_faces(uncut)) faces_.push_back(f.nodes);
+}
+
+std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const Vec3& tip,
+                                              const Vec3& back) const {
+  const Vec3 axis = back - tip;
+  const double length = axis.norm();
+  if (!(length > 0.0)) return std::nullopt;
+  const Vec3 dir = axis / length;
+  // The nearest crossing of the surface either way: the tip is under the surface when the ray first
+  // leaves the tissue, not when it first enters it (a tip above a fold of the organ).
+  double best = std::numeric_limits<double>::infinity();
+  std::optional<SurfaceHit> hit;
+  bool leaving = false;
+  for (const auto& f : faces_) {
+    const Vec3 &a = x[f[0]], &b = x[f[1]], &c = x[f[2]];
+    // Moller-Trumbore, edges inclusive, so a ray through an edge or a vertex still meets the surface.
+    const Vec3 e1 = b - a, e2 = c - a;
+    const Vec3 n = e1.cross(e2);
+    const Vec3 pv = dir.cross(e2);
+    const double det = e1.dot(pv);
+    if (det == 0.0) continue;
+    const Vec3 tv = tip - a;
+    const double u = tv.dot(pv) / det;
+    if (u < 0.0 || u > 1.0) continue;
+    const Vec3 qv = tv.cross(e1);
+    const double v = dir.dot(qv) / det;
+    if (v < 0.0 || u + v > 1.0) continue;
+    const double t = e2.dot(qv) / det;
+    if (t < 0.0 || t >= best) continue;
+    best = t;
+    leaving = n.dot(dir) > 0.0;
+    const Vec3 normal = n.normalized();
+    hit = SurfaceHit{t * dir.dot(normal), tip + t * dir, normal};
+  }
+  if (!leaving) return std::nullopt;
+  return hit;
+}
+
+}  // namespace scalpel

@@ -1,0 +1,47 @@
+// Where the tissue's outer surface is above the blade's tip, in the current configuration: how deep
+// the tip is below it and which way the surface faces there. The task score measures depth and the
+// blade's bevel with it at the moment of cutting (docs/scoring.md), so on a curved or deformed organ
+// depth is depth below the skin the blade entered, not below a bounding box.
+//
+// The surface is the outer boundary of the uncut mesh. Cuts never split the original corner nodes
+// (cutting/cut_engine.hpp), so its triangles stay defined by the corners' current positions as the
+// tissue deforms; a triangle an incision has split spans its lips, which near the blade (where the
+// crack has not yet opened) is still the skin.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "mesh/mesh.hpp"
+
+namespace scalpel {
+
+struct SurfaceHit {
+  double depth = 0;            // [m] of the tip below the surface plane where the blade enters it
+  Vec3 point = Vec3::Zero();   // where the blade's line leaves the tissue [m]
+  Vec3 normal = Vec3::Zero();  // outward unit normal of the surface there
+};
+
+class SurfaceProbe {
+ public:
+  // Keeps the outer boundary of `uncut` by its node slots.
+  explicit SurfaceProbe(const TetMesh& uncut);
+
+  // The first surface triangle the ray from `tip` towards `back` leaves the tissue through (its
+  // outward normal along the ray), in `mesh`'s current positions; none when the ray leaves through
+  // no triangle (the tip is not under the surface).
+  [[nodiscard]] std::optional<SurfaceHit> above(const TetMesh& mesh, const Vec3& tip,
+                                                const Vec3& back) const {
+    return above(mesh.positions(), tip, back);
+  }
+  // The same in positions `x` by node slot (the rest positions: depth in the material).
+  [[nodiscard]] std::optional<SurfaceHit> above(const std::vector<Vec3>& x, const Vec3& tip,
+                                                const Vec3& back) const;
+
+ private:
+  std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented
+};
+
+}  // namespace scalpel
