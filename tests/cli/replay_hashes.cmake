@@ -1,5 +1,5 @@
 # The bundled replays against the sha256 of their outputs stored in tests/data/replay_hashes.txt:
-# mesh.vtu as written; report.json less what is not the simulation's behaviour, "timings" (wall
+# mesh.vtu and frames.csv as written; report.json less what is not the simulation's behaviour, "timings" (wall
 # clock) and "invariants.checked_after_every_step" (on in the validate build only); and the three
 # pictures of --images, drawn by Mesa's llvmpipe whatever GPU the machine has, compared only where
 # the Mesa package is the one that drew the stored ones. The replays run in the source tree, with
@@ -97,7 +97,7 @@ function(replay name dir prefix)
   file(WRITE ${dir}/report.hashed.json "${kept}")
   string(SHA256 hash "${kept}")
   set(${prefix}_report.json ${hash} PARENT_SCOPE)
-  foreach(file mesh.vtu ${pictures})
+  foreach(file mesh.vtu frames.csv ${pictures})
     if(EXISTS ${dir}/${file})
       file(SHA256 ${dir}/${file} hash)
       set(${prefix}_${file} ${hash} PARENT_SCOPE)
@@ -110,7 +110,7 @@ endfunction()
 function(replay_twice name dir prefix)
   replay(${name} ${dir}/a first)
   replay(${name} ${dir}/b second)
-  foreach(file report.json mesh.vtu ${pictures})
+  foreach(file report.json mesh.vtu frames.csv ${pictures})
     if(NOT "${first_${file}}" STREQUAL "${second_${file}}")
       message(FATAL_ERROR "replay '${name}': ${file} differs between two runs (${dir}/a and ${dir}/b): "
                           "the replay is not deterministic")
@@ -138,7 +138,7 @@ if(UPDATE)
     message(FATAL_ERROR "the stored hashes include the pictures: rewrite them with a scalpelsim that draws them")
   endif()
   set(text "# sha256 of the outputs of the bundled replays (tests/cli/bundled_replays.cmake), run in the
-# source tree: mesh.vtu as written; report.json without \"timings\" (wall clock) and without
+# source tree: mesh.vtu and frames.csv as written; report.json without \"timings\" (wall clock) and without
 # \"invariants.checked_after_every_step\" (on in the validate build only); the pictures of --images,
 # drawn by Mesa's llvmpipe from the package named on the line \"mesa\". Builds for the generic
 # x86-64 target give these, at -O0 to -O3 (docs/architecture.md, Determinism). Checked by the tests
@@ -148,7 +148,7 @@ mesa ${mesa}
 ")
   foreach(name IN LISTS scalpel_replays)
     replay_twice(${name} ${OUT}/${name} now)
-    foreach(file mesh.vtu report.json ${pictures})
+    foreach(file mesh.vtu frames.csv report.json ${pictures})
       if(NOT "${now_${file}}" STREQUAL "${stored_${name}/${file}}")
         message(STATUS "${name}/${file}: ${stored_${name}/${file}} -> ${now_${file}}")
       endif()
@@ -161,7 +161,7 @@ mesa ${mesa}
 endif()
 
 replay_twice(${REPLAY} ${OUT} now)
-set(compared mesh.vtu report.json)
+set(compared mesh.vtu frames.csv report.json)
 if(NOT PICTURES)
   message(STATUS "pictures not compared: this scalpelsim draws none")
 elseif(NOT mesa STREQUAL stored_mesa)
