@@ -66,8 +66,9 @@ void print_progress(double fraction) {
 }
 
 // Exit codes (README): 0 done, 1 mesh invariants broken, 2 bad input, 3 any other error, 4 no
-// graphics (built without the window, or no OpenGL 3.3 context).
+// graphics (built without the window, or no OpenGL 3.3 context), 5 warnings under --strict.
 constexpr int kExitNoGraphics = 4;
+constexpr int kExitStrict = 5;
 
 // A command that needs OpenGL in a build without it.
 struct NoGraphics : std::runtime_error {
@@ -81,7 +82,7 @@ struct ImageArgs {
 };
 
 int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out,
-               bool no_progress, const ImageArgs& image_args) {
+               bool no_progress, bool strict, const ImageArgs& image_args) {
   const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
   const Scenario scenario = load_scenario(scenario_path);
   fs::path log_path = log_arg;
@@ -127,14 +128,22 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
         std::cout << "    " << part["name"].get<std::string>() << ": " << part["why"].get<std::string>()
                   << "\n";
   }
+  for (const auto& w : r.report["warnings"])
+    std::cerr << "warning: " << w["message"].get<std::string>() << " (" << w["code"].get<std::string>()
+              << ")\n";
+  for (const auto& w : r.run["warnings"])
+    std::cerr << "warning: " << w["message"].get<std::string>() << " (" << w["code"].get<std::string>()
+              << ")\n";
   std::cout << "  invariants " << (r.invariants_ok ? "hold" : "BROKEN") << "\n"
             << "  wrote " << (fs::path(out) / "report.json").string() << ", "
-            << (fs::path(out) / "frames.csv").string() << " and " << (fs::path(out) / "mesh.vtu").string()
-            << "\n";
+            << (fs::path(out) / "run.json").string() << ", " << (fs::path(out) / "frames.csv").string()
+            << " and " << (fs::path(out) / "mesh.vtu").string() << "\n";
 #ifdef SCALPEL_HAVE_GUI
   if (pictures) std::cout << "  wrote " << pictures->written().size() << " pictures in " << out << "\n";
 #endif
-  return r.invariants_ok ? 0 : 1;
+  if (!r.invariants_ok) return 1;
+  // The session's warnings are errors under --strict; the frame rate's depends on the machine.
+  return strict && !r.report["warnings"].empty() ? kExitStrict : 0;
 }
 
 int cmd_validate(const std::string& path) {
@@ -375,7 +384,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   std::string scenario, log, out = "out", mesh_path, make_log_out;
-  bool json = false, no_progress = false;
+  bool json = false, no_progress = false, strict = false;
 
   auto* replay_cmd =
       app.add_subcommand("replay", "Replay a pose log headless; writes report.json and mesh.vtu");
@@ -384,6 +393,9 @@ int main(int argc, char** argv) {
   replay_cmd->add_option("log", log, "Pose log CSV (default: the scenario's `log`)");
   replay_cmd->add_option("--out", out, "Output folder")->capture_default_str();
   replay_cmd->add_flag("--no-progress", no_progress, "No progress bar on the terminal");
+  replay_cmd->add_flag(
+      "--strict", strict,
+      "Exit 5 when the report holds warnings (implausible input or physics, docs/formats.md)");
   ImageArgs image_args;
   replay_cmd->add_flag("--images", image_args.images,
                        "Also write PNG pictures of the final state: top.png, oblique.png, section.png");
@@ -465,7 +477,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, image_args);
+    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, image_args);
     if (*validate_cmd) return cmd_validate(scenario);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);

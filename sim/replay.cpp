@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <optional>
+#include <sstream>
 
 #include "base/input_error.hpp"
 #include "devices/mock_device.hpp"
@@ -31,6 +32,9 @@ using json = nlohmann::ordered_json;
 // and its middle over this window [m] around the path's midpoint.
 constexpr double kWoundBand = 3.0;
 constexpr double kWoundWindow = 4e-3;
+// A node displaced by more than this fraction of the mesh's diagonal is a warning: skin gapes and is
+// dragged by millimetres, not by a fifth of the patch.
+constexpr double kDisplacementLimit = 0.2;
 
 json percentiles(const std::vector<double>& v, double scale) {
   json j;
@@ -75,8 +79,11 @@ json task_json(const TaskScore& t) {
   }
   j["components"] = components;
   json incisions = json::array();
-  for (const IncisionScore& s : t.incisions)
-    incisions.push_back({{"path_length", s.path_length},
+  for (const IncisionScore& s : t.incisions) {
+    json path = json::array();
+    for (const Vec3& p : s.path) path.push_back({p.x(), p.y(), p.z()});
+    incisions.push_back({{"path", path},
+                         {"path_length", s.path_length},
                          {"tolerance", s.tolerance},
                          {"coverage", s.coverage},
                          {"cut_points", s.cut_points},
@@ -92,6 +99,7 @@ json task_json(const TaskScore& t) {
                          {"bevel_deg", {{"mean", s.bevel_mean_deg}, {"max", s.bevel_max_deg}}},
                          {"strokes", s.strokes},
                          {"hesitations", s.hesitations}});
+  }
   j["incisions"] = incisions;
   j["targets_length"] = t.targets_length;
   j["time_in_tissue"] = t.time_in_tissue;
@@ -159,12 +167,6 @@ json severed_json(const Simulation& sim) {
 
 }  // namespace
 
-json deterministic_part(const json& report) {
-  json j = report;
-  j.erase("timings");
-  return j;
-}
-
 ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
                     const ReplayOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -174,8 +176,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   std::vector<std::uint64_t> sample_frames;
   std::uint64_t frame_count = 0;
   bool verbatim = false;
+  json warnings = json::array();  // on the session's input and physics (docs/formats.md)
+  const auto warn = [&warnings](const std::string& code, const std::string& message) {
+    warnings.push_back({{"code", code}, {"message", message}});
+  };
   {
     PoseLogReader reader(log_path.string());
+    if (const auto recorded_on = reader.metadata("scenario"); recorded_on && *recorded_on != scenario.name)
+      warn("log_scenario", log_path.string() + " was recorded on scenario '" + *recorded_on +
+                               "', replayed on '" + scenario.name + "'");
     const std::optional<std::string> playback = reader.metadata("playback");
     if (playback && *playback != "verbatim" && *playback != "interpolate")
       throw InputError(log_path.string(), 0, 0, "playback",
@@ -204,6 +213,32 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   }
   Simulation sim(scenario);
   const MeshSummary initial = summarize(sim.mesh());
+  const double diagonal = (initial.box_max - initial.box_min).norm();
+  {
+    // Units: a mesh written in millimetres is a thousand times the blade.
+    const double blade = (scenario.tool.blade_back - scenario.tool.blade_tip).norm();
+    if (diagonal > 100 * blade || diagonal < 0.1 * blade) {
+      std::ostringstream m;
+      m << "the mesh is " << diagonal << " m across, " << diagonal / blade << " times the blade's length ("
+        << blade << " m); " << (diagonal > blade ? "is it in millimetres?" : "is the blade in millimetres?")
+        << " (SI units throughout, docs/formats.md)";
+      warn("mesh_scale", m.str());
+    }
+    if (scenario.task)
+      for (const Incision& in : scenario.task->incisions)
+        for (const Vec3& p : in.path)
+          if ((p.head<2>().array() < initial.box_min.head<2>().array() - 1e-9 * diagonal).any() ||
+              (p.head<2>().array() > initial.box_max.head<2>().array() + 1e-9 * diagonal).any()) {
+            std::ostringstream m;
+            m << "the task's path point [" << p.x() << ", " << p.y() << ", " << p.z()
+              << "] lies outside the mesh's extent in x and y";
+            warn("task_outside_mesh", m.str());
+          }
+  }
+  // Tissue carried far from where it started: the largest displacement and the frame it was first
+  // beyond kDisplacementLimit of the mesh's diagonal.
+  double displacement_max = 0.0;
+  std::size_t displaced_frame = 0;
   // The time series beside the report (docs/formats.md, frames.csv): one row per frame, the tool
   // at the frame's last sample.
   std::filesystem::create_directories(options.out_dir);
@@ -226,8 +261,12 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   const double duration = log.back().t - log.front().t;
   const double visual_rate = scenario.simulation.visual_rate;
   // Verbatim: the frames the session ran (frame_count, above).
-  const auto frames = verbatim ? static_cast<std::size_t>(frame_count)
-                               : static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
+  auto frames = verbatim ? static_cast<std::size_t>(frame_count)
+                         : static_cast<std::size_t>(std::ceil(duration * visual_rate)) + 1;
+  // simulation.duration: the session stops there, whatever the log holds after it.
+  if (scenario.simulation.duration)
+    frames =
+        std::min(frames, static_cast<std::size_t>(std::ceil(*scenario.simulation.duration * visual_rate)));
   std::size_t cycles = 0;
   std::vector<double> frame_seconds;
   ToolSample sample;
@@ -266,6 +305,13 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     }
     frame_seconds.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - frame_start).count());
+    {
+      const TetMesh& m = sim.mesh();
+      double d = 0.0;
+      for (const NodeId n : m.nodes()) d = std::max(d, (m.position(n) - m.rest(n)).norm());
+      displacement_max = std::max(displacement_max, d);
+      if (displaced_frame == 0 && d > kDisplacementLimit * diagonal) displaced_frame = k;
+    }
     if (options.on_frame) options.on_frame(sim, k, k == frames);
     if (options.progress) options.progress(static_cast<double>(k) / static_cast<double>(frames));
   }
@@ -274,6 +320,16 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   const CutEngine& cutter = sim.cutter();
   const CutTotals& totals = cutter.totals();
   const HapticStats hs = loop.stats();
+
+  if (displaced_frame > 0) {
+    std::ostringstream m;
+    m << "tissue moved up to " << displacement_max << " m from where it started, beyond "
+      << 100 * kDisplacementLimit << " % of the mesh's diagonal (" << diagonal << " m) from frame "
+      << displaced_frame << ": dragged or flung, not cut";
+    warn("tissue_displaced", m.str());
+  }
+  if (sim.scorer().time_in_tissue() == 0.0 && cutter.totals().edges_cut == 0)
+    warn("blade_never_met_tissue", "the blade never went under the tissue surface and cut nothing");
 
   json report;
   report["format"] = "scalpelsim-report 1";
@@ -326,13 +382,10 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                        {"cut_surface_area", cutter.cut_surface_area()}};
   json violations = json::array();
   for (const auto& v : check.violations) violations.push_back(v.what);
-  report["invariants"] = {{"oriented", check.passed[1]},      {"conforming", check.passed[2]},
-                          {"watertight", check.passed[3]},    {"volume", check.passed[4]},
-#ifdef SCALPEL_VALIDATE
-                          {"checked_after_every_step", true},
-#else
-                          {"checked_after_every_step", false},
-#endif
+  report["invariants"] = {{"oriented", check.passed[1]},
+                          {"conforming", check.passed[2]},
+                          {"watertight", check.passed[3]},
+                          {"volume", check.passed[4]},
                           {"violations", violations}};
   {
     const auto& steps = sim.tissue_steps();
@@ -393,11 +446,18 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
           {"mean_in_contact", force_sum / std::max<double>(1.0, static_cast<double>(frames_in_contact))}}}};
   }
   if (const auto score = sim.task_score()) report["task"] = task_json(*score);
+  report["warnings"] = warnings;
   // Tissue steps right after a cut (the mesh changed since the step before) and the others.
   std::vector<double> after_cut, without_cut;
   for (std::size_t k = 0; k < sim.tissue_step_seconds().size(); ++k)
     (sim.tissue_step_after_cut()[k] ? after_cut : without_cut).push_back(sim.tissue_step_seconds()[k]);
-  report["timings"] = {
+  json run;
+#ifdef SCALPEL_VALIDATE
+  run["build"] = {{"invariants_checked_after_every_step", true}};
+#else
+  run["build"] = {{"invariants_checked_after_every_step", false}};
+#endif
+  run["timings"] = {
       {"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
       {"tissue_step_ms", percentiles(sim.tissue_step_seconds(), 1e3)},
       {"tissue_step_after_cut_ms", percentiles(after_cut, 1e3)},
@@ -406,15 +466,24 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
 
   std::filesystem::create_directories(options.out_dir);
-  {
-    std::ofstream out(options.out_dir / "report.json");
-    out << report.dump(2) << '\n';
-    if (!out) throw std::runtime_error("cannot write " + (options.out_dir / "report.json").string());
+  // The frame rate depends on the machine: a warning of the run, not of the session.
+  json run_warnings = json::array();
+  if (!frame_seconds.empty() && quantile(frame_seconds, 0.95) > 1.0 / visual_rate) {
+    std::ostringstream m;
+    m << "frames took " << 1e3 * quantile(frame_seconds, 0.95) << " ms at the 95th percentile: this machine "
+      << "cannot hold the scenario's visual rate of " << visual_rate << " Hz live";
+    run_warnings.push_back({{"code", "frame_rate"}, {"message", m.str()}});
+  }
+  run["warnings"] = run_warnings;
+  for (const auto& [name, body] : {std::pair{"report.json", &report}, std::pair{"run.json", &run}}) {
+    std::ofstream out(options.out_dir / name);
+    out << body->dump(2) << '\n';
+    if (!out) throw std::runtime_error("cannot write " + (options.out_dir / name).string());
   }
   series.flush();
   if (!series) throw std::runtime_error("cannot write " + (options.out_dir / "frames.csv").string());
   write_mesh_vtu(sim, options.out_dir / "mesh.vtu");
-  return {report, check.ok()};
+  return {report, run, check.ok()};
 }
 
 }  // namespace scalpel

@@ -18,7 +18,8 @@ namespace scalpel {
 class Simulation;
 
 struct ReplayOptions {
-  std::filesystem::path out_dir;  // report.json and mesh.vtu are written here (created if missing)
+  std::filesystem::path
+      out_dir;  // report.json, run.json, frames.csv and mesh.vtu go here (created if missing)
   // Called after every frame with the fraction done, for a progress bar.
   std::function<void(double)> progress;
   // Called after every frame with the simulation as it stands, the frame's number (from 1) and
@@ -27,15 +28,17 @@ struct ReplayOptions {
 };
 
 struct ReplayResult {
-  nlohmann::ordered_json report;  // also written as out_dir/report.json
+  // Written as out_dir/report.json: what the session did, identical from run to run and build to
+  // build (docs/formats.md), with `warnings` on the session's input and physics.
+  nlohmann::ordered_json report;
+  // Written as out_dir/run.json: what depends on the machine and the build (wall-clock timings, the
+  // build's checks, the frame-rate warning).
+  nlohmann::ordered_json run;
   bool invariants_ok = false;
 };
 
 // Throws InputError for a bad scenario or log.
 [[nodiscard]] ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
                                   const ReplayOptions& options);
-
-// The report without its wall-clock timings: what must be identical between two replays.
-[[nodiscard]] nlohmann::ordered_json deterministic_part(const nlohmann::ordered_json& report);
 
 }  // namespace scalpel

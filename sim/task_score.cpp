@@ -247,6 +247,7 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     const Incision& in = task_.incisions[k];
     const Target& t = targets_[k];
     IncisionScore s;
+    s.path = in.path;
     s.path_length = t.length;
     s.tolerance = in.tolerance;
     s.depth_min = in.depth_min;

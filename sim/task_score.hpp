@@ -31,6 +31,7 @@ struct ScoreComponent {
 };
 
 struct IncisionScore {
+  std::vector<Vec3> path;              // [m] the target, rest coordinates
   double path_length = 0;              // [m]
   double tolerance = 0;                // [m]
   double coverage = 0;                 // [-] fraction of the path with a cut point within the tolerance
@@ -97,6 +98,8 @@ class TaskScorer {
 
   [[nodiscard]] TaskScore score(const CutEngine& cutter, const TetMesh& mesh) const;
   [[nodiscard]] const ToolTracePoint& last() const { return last_; }
+  // [s] with the tip under the tissue surface so far.
+  [[nodiscard]] double time_in_tissue() const { return time_in_tissue_; }
   [[nodiscard]] const Task& task() const { return task_; }
 
   // A pause of the tip slower than this for at least this long, in the tissue, is a hesitation.

@@ -1,7 +1,6 @@
 # The bundled replays against the sha256 of their outputs stored in tests/data/replay_hashes.txt:
-# mesh.vtu and frames.csv as written; report.json less what is not the simulation's behaviour, "timings" (wall
-# clock) and "invariants.checked_after_every_step" (on in the validate build only); and the three
-# pictures of --images, drawn by Mesa's llvmpipe whatever GPU the machine has, compared only where
+# report.json, frames.csv and mesh.vtu as written (what depends on the machine and the build is in
+# run.json, not hashed); and the three pictures of --images, drawn by Mesa's llvmpipe whatever GPU the machine has, compared only where
 # the Mesa package is the one that drew the stored ones. The replays run in the source tree, with
 # the relative paths of tests/cli/bundled_replays.cmake, each twice: the two runs must agree.
 #
@@ -33,32 +32,8 @@ if(no_mesa)
   set(mesa unknown)
 endif()
 
-# report.json as written (dump(2) of an ordered_json: members in the order sim/replay.cpp puts
-# them, two spaces a level) less the fields named above, cut from the text so that the hash does
-# not depend on a JSON writer here.
-function(deterministic_report text out_var)
-  string(FIND "${text}" ",\n  \"timings\": {" begin)
-  if(begin EQUAL -1)
-    message(FATAL_ERROR "report.json has no \"timings\" where expected: update ${CMAKE_CURRENT_FUNCTION_LIST_FILE}")
-  endif()
-  string(SUBSTRING "${text}" ${begin} -1 rest)
-  string(FIND "${rest}" "\n  }" close)  # the first brace at the top level's indentation closes it
-  math(EXPR end "${begin} + ${close} + 4")
-  string(SUBSTRING "${text}" 0 ${begin} head)
-  string(SUBSTRING "${text}" ${end} -1 tail)
-  string(REGEX REPLACE "\n    \"checked_after_every_step\": (true|false),\n" "\n" kept "${head}${tail}")
-  string(JSON timings ERROR_VARIABLE no_timings GET "${kept}" timings)
-  string(JSON build ERROR_VARIABLE no_build GET "${kept}" invariants checked_after_every_step)
-  string(JSON edges ERROR_VARIABLE not_json GET "${kept}" cutting edges_cut)
-  if(NOT no_timings OR NOT no_build OR not_json)
-    message(FATAL_ERROR "report.json: cannot cut \"timings\" and \"checked_after_every_step\" out of it: "
-                        "update ${CMAKE_CURRENT_FUNCTION_LIST_FILE}")
-  endif()
-  set(${out_var} "${kept}" PARENT_SCOPE)
-endfunction()
-
-# Replays `name` into `dir`, checks what its log is there to show, writes the hashed form of the
-# report beside it (report.hashed.json) and sets `<prefix>_<file>` to the hash of each output.
+# Replays `name` into `dir`, checks what its log is there to show and sets `<prefix>_<file>` to the
+# hash of each output.
 function(replay name dir prefix)
   set(scenario ${scalpel_replay_${name}_scenario})
   if(NOT scenario)
@@ -93,11 +68,7 @@ function(replay name dir prefix)
   endif()
   message(STATUS "replay '${name}': ${edges} edges cut, ${backward} backward crossings, "
                  "${recursions} recursive continuations")
-  deterministic_report("${report}" kept)
-  file(WRITE ${dir}/report.hashed.json "${kept}")
-  string(SHA256 hash "${kept}")
-  set(${prefix}_report.json ${hash} PARENT_SCOPE)
-  foreach(file mesh.vtu frames.csv ${pictures})
+  foreach(file report.json mesh.vtu frames.csv ${pictures})
     if(EXISTS ${dir}/${file})
       file(SHA256 ${dir}/${file} hash)
       set(${prefix}_${file} ${hash} PARENT_SCOPE)
@@ -138,8 +109,8 @@ if(UPDATE)
     message(FATAL_ERROR "the stored hashes include the pictures: rewrite them with a scalpelsim that draws them")
   endif()
   set(text "# sha256 of the outputs of the bundled replays (tests/cli/bundled_replays.cmake), run in the
-# source tree: mesh.vtu and frames.csv as written; report.json without \"timings\" (wall clock) and without
-# \"invariants.checked_after_every_step\" (on in the validate build only); the pictures of --images,
+# source tree: report.json, mesh.vtu and frames.csv as written (run.json, with what depends on the
+# machine and the build, is not hashed); the pictures of --images,
 # drawn by Mesa's llvmpipe from the package named on the line \"mesa\". Builds for the generic
 # x86-64 target give these, at -O0 to -O3 (docs/architecture.md, Determinism). Checked by the tests
 # cli_replay_*_matches_stored_hashes (tests/cli/replay_hashes.cmake), written by
@@ -180,7 +151,7 @@ foreach(file IN LISTS compared)
 endforeach()
 if(differ)
   message(FATAL_ERROR "replay '${REPLAY}' no longer gives the outputs whose hashes ${HASHES} holds:\n${differ}"
-                      "The outputs are in ${OUT}/a (report.json as hashed: report.hashed.json). If the change "
+                      "The outputs are in ${OUT}/a. If the change "
                       "is meant, rewrite the hashes in the commit that makes it:\n  ${regenerate}")
 endif()
 string(REPLACE ";" ", " compared "${compared}")
