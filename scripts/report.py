@@ -1,13 +1,11 @@
 #!/usr/bin/env python3
-"""Turn `scalpelsim replay` output folders into self-contained HTML pages for an instructor.
+"""Self-contained HTML pages for an instructor from `scalpelsim replay` output folders.
 
     python3 scripts/report.py --out HTML_DIR SESSION_DIR [SESSION_DIR ...]
 
-Each SESSION_DIR holds report.json and frames.csv (docs/formats.md, "Replay report") and may hold
-the pictures top.png, oblique.png and section.png. One page per session is written, and with
-several sessions (attempts of one trainee, in the order given) also progress.html. Every image is
-embedded, so a page can be mailed on its own.
-Exit status: 0 written, 2 bad input, 3 matplotlib missing.
+A page per session (report.json, frames.csv and the pictures, docs/formats.md "Replay report"),
+and with several sessions (one trainee's attempts, in order) progress.html. Images are embedded,
+so a page can be mailed on its own. Exit status: 0 written, 2 bad input, 3 matplotlib missing.
 """
 import argparse
 import base64
@@ -39,11 +37,9 @@ DPI = 110
 DEFAULT_PASS_SCORE = 70.0  # task.pass.score's default (config/scenarios/README.md)
 FRAME_COLUMNS = ("t", "tip_x", "tip_y", "in_tissue", "material_depth", "incision", "path_s",
                  "speed", "hand_force", "cutting")
-PICTURES = (("top.png", "Top view, straight down (orthographic): the target line with its "
-                        "tolerance band, the wound and the blade."),
-            ("oblique.png", "Oblique view from in front of the target line and above."),
-            ("section.png", "Section across the middle of the target line: the skin's layers "
-                            "and the wound's depth and gape in profile."))
+PICTURES = (("top.png", "straight down: the target line, its tolerance band, wound and blade"),
+            ("oblique.png", "from in front of the target line and above"),
+            ("section.png", "cut across the middle of the target line: the layers, the wound"))
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
 MM = 1000.0  # the files are in metres; instructors read millimetres
 
@@ -52,50 +48,52 @@ class BadInput(Exception):
     """Input the script cannot use; the message names the file and the problem."""
 
 
-# ---------------------------------------------------------------------------------------------
-# Reading
-# ---------------------------------------------------------------------------------------------
+# --- Reading ---
 
 def is_number(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-def need(obj, key, kind, where, nullable=False):
-    """obj[key], checked to be of `kind` ('number', 'bool', 'str', 'list', 'dict')."""
-    if not isinstance(obj, dict) or key not in obj:
-        raise BadInput(f"{where}: missing '{key}'")
-    v = obj[key]
-    ok = (v is None and nullable) or {
-        "number": is_number(v), "bool": isinstance(v, bool), "str": isinstance(v, str),
-        "list": isinstance(v, list), "dict": isinstance(v, dict)}[kind]
-    if not ok:
-        raise BadInput(f"{where}: '{key}' should be a {kind}, not {json.dumps(v)[:40]}")
-    return v
+TYPES = {"number": is_number, "bool": lambda v: isinstance(v, bool),
+         "str": lambda v: isinstance(v, str), "list": lambda v: isinstance(v, list)}
+# The fields of report.json's task that the pages use ("?": may be null).
+COMPONENT = {"name": "str", "value": "number", "unit": "str", "threshold": "number?",
+             "pass_when": "str", "passed": "bool", "points": "number", "points_max": "number",
+             "why": "str"}
+INCISION = {"path": "list", "path_length": "number", "tolerance": "number", "coverage": "number",
+            "lateral_deviation": {"mean": "number", "max": "number", "frechet": "number"},
+            "depth": {k: "number" for k in ("max", "mean", "in_band", "min_accepted",
+                                            "max_accepted")},
+            "bevel_deg": {"mean": "number", "max": "number"}, "strokes": "number",
+            "hesitations": "number"}
+TASK = {"score": "number", "passed": "bool", "components": "list", "incisions": "list"}
+
+
+def check(obj, spec, where):
+    """Raise BadInput naming the first field of obj that does not match spec."""
+    if not isinstance(obj, dict):
+        raise BadInput(f"{where}: should be a JSON object")
+    for key, kind in spec.items():
+        if key not in obj:
+            raise BadInput(f"{where}: missing '{key}'")
+        v = obj[key]
+        if isinstance(kind, dict):
+            check(v, kind, f"{where}.{key}")
+        elif not (v is None and kind.endswith("?")) and not TYPES[kind.rstrip("?")](v):
+            raise BadInput(f"{where}: '{key}' should be a {kind.rstrip('?')}, "
+                           f"not {json.dumps(v)[:40]}")
 
 
 def check_task(task, path):
-    """Check the fields of `task` that the pages use, so a broken report fails with a clear line."""
-    w = f"{path}: task"
-    need(task, "score", "number", w)
-    need(task, "passed", "bool", w)
-    for i, c in enumerate(need(task, "components", "list", w)):
-        cw = f"{w}.components[{i}]"
-        for key in ("name", "unit", "pass_when", "why"):
-            need(c, key, "str", cw)
-        for key in ("value", "points", "points_max"):
-            need(c, key, "number", cw)
-        need(c, "threshold", "number", cw, nullable=True)
-        need(c, "passed", "bool", cw)
-    for i, inc in enumerate(need(task, "incisions", "list", w)):
-        iw = f"{w}.incisions[{i}]"
-        pts = need(inc, "path", "list", iw)
-        if len(pts) < 2 or not all(isinstance(p, list) and len(p) == 3 and all(map(is_number, p))
-                                   for p in pts):
-            raise BadInput(f"{iw}: 'path' should be a list of at least two [x, y, z] points")
-        for key in ("tolerance", "path_length", "coverage"):
-            need(inc, key, "number", iw)
-        for key in ("min_accepted", "max_accepted", "max", "mean", "in_band"):
-            need(need(inc, "depth", "dict", iw), key, "number", iw + ".depth")
+    check(task, TASK, f"{path}: task")
+    for i, c in enumerate(task["components"]):
+        check(c, COMPONENT, f"{path}: task.components[{i}]")
+    for i, inc in enumerate(task["incisions"]):
+        where = f"{path}: task.incisions[{i}]"
+        check(inc, INCISION, where)
+        if len(inc["path"]) < 2 or not all(isinstance(p, list) and len(p) == 3
+                                           and all(map(is_number, p)) for p in inc["path"]):
+            raise BadInput(f"{where}: 'path' should be a list of at least two [x, y, z] points")
 
 
 def read_report(folder):
@@ -112,7 +110,7 @@ def read_report(folder):
     if not isinstance(report, dict):
         raise BadInput(f"{path}: should hold a JSON object")
     if report.get("task") is not None:
-        check_task(need(report, "task", "dict", path), path)
+        check_task(report["task"], path)
     return report
 
 
@@ -135,38 +133,31 @@ def read_frames(folder):
     index = {c: header.index(c) for c in FRAME_COLUMNS}
     frames = {c: [] for c in FRAME_COLUMNS}
     for line, row in enumerate(rows[1:], start=2):
-        if not row:
-            continue
         if len(row) != len(header):
             raise BadInput(f"{path}: line {line}: {len(row)} fields, the header has {len(header)}")
         for c, i in index.items():
             try:
                 v = float(row[i])
             except ValueError:
-                v = math.nan
+                v = math.inf
             if not math.isfinite(v):
                 raise BadInput(f"{path}: line {line}: column '{c}': {row[i]!r} is not a number")
             frames[c].append(v)
     return frames if frames["t"] else None
 
 
-def read_pictures(folder):
-    pictures = []
-    for name, caption in PICTURES:
-        path = os.path.join(folder, name)
-        if os.path.isfile(path):
-            with open(path, "rb") as f:
-                data = f.read()
-            if data.startswith(b"\x89PNG\r\n\x1a\n"):  # embed only what a browser will show
-                pictures.append((name, caption, data))
-    return pictures
-
-
 def read_session(folder):
     if not os.path.isdir(folder):
         raise BadInput(f"{folder}: no such folder")
+    pictures = []
+    for name, caption in PICTURES:
+        if os.path.isfile(os.path.join(folder, name)):
+            with open(os.path.join(folder, name), "rb") as f:
+                data = f.read()
+            if data.startswith(b"\x89PNG\r\n\x1a\n"):  # embed only what a browser will show
+                pictures.append((name, caption, data))
     return {"name": os.path.basename(os.path.abspath(folder)), "report": read_report(folder),
-            "frames": read_frames(folder), "pictures": read_pictures(folder)}
+            "frames": read_frames(folder), "pictures": pictures}
 
 
 def task_of(session):
@@ -177,9 +168,7 @@ def components_of(session):
     return (task_of(session) or {}).get("components", [])
 
 
-# ---------------------------------------------------------------------------------------------
-# Plots
-# ---------------------------------------------------------------------------------------------
+# --- Plots ---
 
 def new_figure(w, h, rows=1):
     fig = Figure(figsize=(w, h), dpi=DPI)
@@ -239,7 +228,7 @@ def plot_top_view(frames, incisions):
         ys += [p[1] * MM + d for p in inc["path"] for d in (-tol, tol)]
     span_x, span_y = max(xs) - min(xs) + 2, max(ys) - min(ys) + 2
     # equal scaling: size the axes to the data's shape, within reason for the page
-    fig, ax = new_figure(8, min(5.5, max(1.6, 6.8 * span_y / span_x)) + 1.4)
+    fig, ax = new_figure(8, min(5.5, max(1.1, 6.8 * span_y / span_x)) + 1.4)
     for k, inc in enumerate(incisions):
         path = [(p[0] * MM, p[1] * MM) for p in inc["path"]]
         for patch in band_patches(path, inc["tolerance"] * MM, "#d5ecf7"):
@@ -263,13 +252,6 @@ def plot_top_view(frames, incisions):
     return png(fig)
 
 
-def depth_frames(frames, k):
-    """Frames cutting incision k whose depth in the tissue's own measure is known (> 0)."""
-    return [i for i in range(len(frames["t"])) if frames["incision"][i] == k
-            and frames["in_tissue"][i] > 0 and frames["cutting"][i] > 0
-            and frames["material_depth"][i] > 0]
-
-
 def plot_depth(frames, incisions):
     fig, ax = new_figure(8, 3.6)
     bands = {(inc["depth"]["min_accepted"], inc["depth"]["max_accepted"]) for inc in incisions}
@@ -283,7 +265,10 @@ def plot_depth(frames, incisions):
                             color="#999999" if len(bands) == 1 else colour,
                             label="accepted depth" + ("" if len(bands) == 1 else f" ({k + 1})"))
         deepest = max(deepest, hi)
-        idx = depth_frames(frames, k)
+        # frames cutting this incision; a depth of 0 in the tissue means not located there
+        idx = [i for i in range(len(frames["t"])) if frames["incision"][i] == k
+               and frames["in_tissue"][i] > 0 and frames["cutting"][i] > 0
+               and frames["material_depth"][i] > 0]
         if idx:
             s = [frames["path_s"][i] * MM for i in idx]
             d = [frames["material_depth"][i] * MM for i in idx]
@@ -367,16 +352,12 @@ def plot_progress_components(sessions):
     return png(fig)
 
 
-# ---------------------------------------------------------------------------------------------
-# HTML
-# ---------------------------------------------------------------------------------------------
+# --- HTML ---
 
-CSS = """
-body { font-family: "DejaVu Sans", Arial, sans-serif; font-size: 15px; color: #222;
+CSS = """body { font-family: "DejaVu Sans", Arial, sans-serif; font-size: 15px; color: #222;
   max-width: 980px; margin: 24px auto; padding: 0 16px; line-height: 1.4; }
-h1 { font-size: 24px; margin: 0 0 4px 0; }
+h1 { font-size: 24px; margin: 0 0 4px 0; } .sub, .note { color: #555; font-size: 14px; }
 h2 { font-size: 19px; margin: 28px 0 8px 0; border-bottom: 1px solid #ccc; padding-bottom: 3px; }
-.sub, .note { color: #555; font-size: 14px; } .sub code { font-size: 13px; }
 .head { display: flex; align-items: center; gap: 28px; margin: 14px 0; }
 .score { font-size: 54px; font-weight: bold; } .score small { font-size: 22px; color: #666; }
 .badge { font-size: 20px; font-weight: bold; padding: 6px 16px; border-radius: 6px; color: #fff; }
@@ -384,13 +365,12 @@ h2 { font-size: 19px; margin: 28px 0 8px 0; border-bottom: 1px solid #ccc; paddi
 table { border-collapse: collapse; width: 100%; font-size: 14px; margin: 6px 0; }
 th, td { border: 1px solid #d0d0d0; padding: 4px 7px; text-align: left; vertical-align: top; }
 th { background: #f0f0f0; } td.num { text-align: right; white-space: nowrap; }
-tr.failed td { background: #fdecea; }
+tr.failed td { background: #fdecea; } .na { color: #999; }
 .yes { color: #2e8b3a; font-weight: bold; } .no { color: #c0392b; font-weight: bold; }
-.na { color: #999; }
 figure { margin: 14px 0; } figure img { max-width: 100%; border: 1px solid #ddd; }
 figcaption { font-size: 13px; color: #555; margin-top: 3px; }
 .pics { display: grid; grid-template-columns: 1fr 1fr; gap: 12px; }
-"""
+.warn { background: #fff4ce; border: 1px solid #e0c060; padding: 6px 12px; margin: 10px 0; }"""
 
 UNITS = {"%": ("%", 1), "mm": (" mm", 2), "deg": ("°", 1), "count": ("", 0),
          "ratio": ("×", 2), "s": (" s", 2), "mm^2": (" mm²", 2)}
@@ -441,27 +421,20 @@ def components_table(components):
 
 
 def incisions_table(incisions):
-    def mm(d, key, decimals=2):
-        v = d.get(key) if isinstance(d, dict) else None
-        return f"{v * MM:.{decimals}f}" if is_number(v) else "?"
-
-    def deg(d, key):
-        v = d.get(key) if isinstance(d, dict) else None
-        return f"{v:.1f}°" if is_number(v) else "?"
-
     head = ("<tr><th>#</th><th>length [mm]</th><th>tolerance [mm]</th><th>coverage</th>"
             "<th>deviation mean / max [mm]</th><th>Fréchet [mm]</th><th>depth mean / max [mm]</th>"
             "<th>accepted depth [mm]</th><th>depth in band</th><th>bevel mean / max</th>"
             "<th>strokes</th><th>hesi&shy;tations</th></tr>")
     rows = []
     for k, inc in enumerate(incisions):
-        lat, dep, bev = inc.get("lateral_deviation"), inc["depth"], inc.get("bevel_deg")
-        cells = [k + 1, mm(inc, "path_length", 1), mm(inc, "tolerance"),
-                 f"{inc['coverage'] * 100:.0f}%", f"{mm(lat, 'mean')} / {mm(lat, 'max')}",
-                 mm(lat, "frechet"), f"{mm(dep, 'mean')} / {mm(dep, 'max')}",
-                 f"{mm(dep, 'min_accepted')}–{mm(dep, 'max_accepted')}",
-                 f"{dep['in_band'] * 100:.0f}%", f"{deg(bev, 'mean')} / {deg(bev, 'max')}",
-                 inc.get("strokes", "?"), inc.get("hesitations", "?")]
+        lat, dep, bev = inc["lateral_deviation"], inc["depth"], inc["bevel_deg"]
+        cells = [k + 1, f"{inc['path_length'] * MM:.1f}", f"{inc['tolerance'] * MM:.2f}",
+                 f"{inc['coverage'] * 100:.0f}%",
+                 f"{lat['mean'] * MM:.2f} / {lat['max'] * MM:.2f}", f"{lat['frechet'] * MM:.2f}",
+                 f"{dep['mean'] * MM:.2f} / {dep['max'] * MM:.2f}",
+                 f"{dep['min_accepted'] * MM:.2f}–{dep['max_accepted'] * MM:.2f}",
+                 f"{dep['in_band'] * 100:.0f}%", f"{bev['mean']:.1f}° / {bev['max']:.1f}°",
+                 f"{inc['strokes']:g}", f"{inc['hesitations']:g}"]
         rows.append("<tr>" + "".join(f'<td class="num">{esc(c)}</td>' for c in cells) + "</tr>")
     return "<table>" + head + "".join(rows) + "</table>"
 
@@ -481,33 +454,31 @@ def key_figures(task):
     return f"<table style='width:auto'>{rows}</table>" if rows else ""
 
 
-def header(session, progress_link):
-    inputs, task = session["report"].get("inputs") or {}, task_of(session)
-    out = [f"<h1>{esc(inputs.get('scenario_name') or session['name'])}</h1>"
-           f"<div class='sub'>session <code>{esc(session['name'])}</code>"
-           f" · log <code>{esc(inputs.get('log', '?'))}</code>"
-           f" · scenario <code>{esc(inputs.get('scenario', '?'))}</code>"
-           + (f" · <a href='{esc(progress_link)}'>all attempts</a>" if progress_link else "")
-           + "</div>"]
-    if task:
-        badge = ("<span class='badge ok'>PASSED</span>" if task["passed"]
-                 else "<span class='badge bad'>NOT PASSED</span>")
-        out.append(f"<div class='head'><div class='score'>{task['score']:.1f}"
-                   f"<small> / 100</small></div>{badge}</div>")
-    else:
-        out.append("<div class='head'><span class='badge none'>NOT SCORED</span>"
-                   "<span class='note'>The scenario has no task, so there is no score; "
-                   "the tool's motion is shown below.</span></div>")
-    return "".join(out)
-
-
 def session_page(session, progress_link=None):
     task, frames = task_of(session), session["frames"]
     incisions = task["incisions"] if task else []
-    body = [header(session, progress_link)]
+    inputs = session["report"].get("inputs") or {}
+    title = inputs.get("scenario_name") or session["name"]
+    body = [f"<h1>{esc(title)}</h1><div class='sub'>session <code>{esc(session['name'])}</code>"
+            f" · log <code>{esc(inputs.get('log', '?'))}</code>"
+            f" · scenario <code>{esc(inputs.get('scenario', '?'))}</code>"
+            + (f" · <a href='{esc(progress_link)}'>all attempts</a>" if progress_link else "")
+            + "</div><div class='head'>"]
+    warnings = [w for w in session["report"].get("warnings") or [] if isinstance(w, dict)]
+    if warnings:  # the replay doubts its own figures: say so before the score
+        body.append("<div class='warn'><b>Warnings of the replay</b> (the figures may mislead):"
+                    "<ul>" + "".join(f"<li><code>{esc(w.get('code', '?'))}</code>: "
+                                     f"{esc(w.get('message', ''))}</li>" for w in warnings)
+                    + "</ul></div>")
     if task:
+        body[0] += (f"<div class='score'>{task['score']:.1f}<small> / 100</small></div>"
+                    + ("<span class='badge ok'>PASSED</span></div>" if task["passed"]
+                       else "<span class='badge bad'>NOT PASSED</span></div>"))
         body += ["<h2>Components</h2>", components_table(task["components"]),
                  "<h2>Incisions</h2>", incisions_table(incisions), key_figures(task)]
+    else:
+        body[0] += ("<span class='badge none'>NOT SCORED</span><span class='note'>The scenario "
+                    "has no task, so there is no score; the tool's motion is below.</span></div>")
     body.append("<h2>The tool's motion</h2>")
     if frames is None:
         body.append("<p class='note'>No frames in frames.csv (or no frames.csv): "
@@ -515,9 +486,9 @@ def session_page(session, progress_link=None):
     else:
         body.append(figure(plot_top_view(frames, incisions),
                            "The tip's path in the tissue seen from above (where it was, world "
-                           "coordinates) over each numbered target and its tolerance band (as "
-                           "drawn on the tissue at rest). Orange dots: frames in which edges "
-                           "were cut."))
+                           "coordinates)" + (" over each numbered target and its tolerance band "
+                                             "(as drawn on the tissue at rest)" if incisions
+                                             else "") + ". Orange dots: frames that cut edges."))
         if incisions:
             unknown = sum(1 for i in range(len(frames["t"])) if frames["in_tissue"][i] > 0
                           and frames["cutting"][i] > 0 and frames["material_depth"][i] <= 0)
@@ -532,24 +503,17 @@ def session_page(session, progress_link=None):
                            "The force the hand pushes against (the tissue's resistance to the "
                            "blade) and the tip's speed; shaded: the tip under the surface."))
     if session["pictures"]:
-        body.append("<h2>Pictures of the final state</h2><div class='pics'>")
-        body += [figure(data, f"{name}: {caption}") for name, caption, data in session["pictures"]]
+        body.append("<h2>The renderer's pictures</h2><div class='pics'>")
+        body += [figure(data, f"{name}: the final state {caption}.")
+                 for name, caption, data in session["pictures"]]
         body.append("</div>")
-    title = (session["report"].get("inputs") or {}).get("scenario_name") or session["name"]
     return page(f"{title}: {session['name']}", "\n".join(body))
 
 
-def pass_score(sessions):
-    """The least passing score: a component named 'score' if a report has one, else the default."""
-    for s in sessions:
-        for c in components_of(s):
-            if c["name"] == "score" and c["threshold"] is not None:
-                return float(c["threshold"])
-    return DEFAULT_PASS_SCORE
-
-
 def progress_page(sessions, pages):
-    threshold = pass_score(sessions)
+    # the least passing score is not in the report: a component named 'score' if one has it
+    threshold = next((c["threshold"] for s in sessions for c in components_of(s)
+                      if c["name"] == "score" and c["threshold"] is not None), DEFAULT_PASS_SCORE)
     rows = []
     for n, (s, link) in enumerate(zip(sessions, pages), start=1):
         task, inputs = task_of(s), s["report"].get("inputs") or {}
@@ -579,14 +543,12 @@ def progress_page(sessions, pages):
     return page("Progress over attempts", "\n".join(body))
 
 
-# ---------------------------------------------------------------------------------------------
-
 def page_names(sessions):
     """File names per session; folders of the same name get -2, -3, ..., never progress.html."""
     used, names = {"progress"}, []
     for s in sessions:
-        base = s["name"] or "session"
-        name, n = base, 1
+        name = base = s["name"] or "session"
+        n = 1
         while name in used:
             n += 1
             name = f"{base}-{n}"
@@ -605,14 +567,12 @@ def main(argv):
     try:
         # Read everything first, so bad input leaves no half-written pages behind.
         sessions = [read_session(d) for d in args.sessions]
-        if os.path.exists(args.out) and not os.path.isdir(args.out):
-            raise BadInput(f"{args.out}: exists and is not a folder")
         os.makedirs(args.out, exist_ok=True)
     except BadInput as e:
         sys.stderr.write(f"report.py: {e}\n")
         return 2
-    except OSError as e:
-        sys.stderr.write(f"report.py: {args.out}: cannot create the folder: {e.strerror}\n")
+    except OSError as e:  # also a file where the folder should be
+        sys.stderr.write(f"report.py: {args.out}: cannot make the folder: {e.strerror}\n")
         return 2
     names = page_names(sessions)
     several = len(sessions) > 1

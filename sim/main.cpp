@@ -2,9 +2,12 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -19,6 +22,7 @@
 #include "mesh/io/mesh_io.hpp"
 #include "mesh/quality.hpp"
 #include "mesh/validate.hpp"
+#include "sim/check.hpp"
 #include "sim/log_generator.hpp"
 #include "sim/quantile.hpp"
 #include "sim/replay.hpp"
@@ -69,6 +73,7 @@ void print_progress(double fraction) {
 // graphics (built without the window, or no OpenGL 3.3 context), 5 warnings under --strict.
 constexpr int kExitNoGraphics = 4;
 constexpr int kExitStrict = 5;
+constexpr int kExitExpectations = 6;  // `check`: a session did not show what its check file expects
 
 // A command that needs OpenGL in a build without it.
 struct NoGraphics : std::runtime_error {
@@ -144,6 +149,57 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   if (!r.invariants_ok) return 1;
   // The session's warnings are errors under --strict; the frame rate's depends on the machine.
   return strict && !r.report["warnings"].empty() ? kExitStrict : 0;
+}
+
+// A folder name from a session's name: letters, digits and '-', the rest '_'.
+std::string slug(const std::string& name) {
+  std::string out;
+  for (const char c : name) out += std::isalnum(static_cast<unsigned char>(c)) || c == '-' ? c : '_';
+  return out;
+}
+
+int cmd_check(const std::string& check_path, const std::string& out, const std::string& junit) {
+  const CheckFile file = load_check_file(check_path);
+  std::vector<CheckOutcome> outcomes;
+  bool broken = false, bad_input = false;
+  for (std::size_t i = 0; i < file.sessions.size(); ++i) {
+    const CheckSession& cs = file.sessions[i];
+    CheckOutcome outcome;
+    outcome.name = cs.name;
+    const fs::path dir = fs::path(out) / (std::to_string(i + 1) + "_" + slug(cs.name));
+    outcome.out_dir = dir.string();
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      const Scenario scenario = load_scenario(cs.scenario);
+      if (!cs.log && !scenario.log)
+        throw InputError(check_path, cs.line, 0, "log", "no log given and the scenario names none");
+      ReplayOptions options;
+      options.out_dir = dir;
+      const ReplayResult r = replay(scenario, cs.log.value_or(scenario.log.value_or(fs::path())), options);
+      broken = broken || !r.invariants_ok;
+      outcome.failures = unmet_expectations(file, cs, r.report, r.invariants_ok);
+    } catch (const InputError& e) {
+      // A session that cannot be replayed fails; the others still run.
+      bad_input = true;
+      outcome.failures.push_back(std::string("bad input: ") + e.what());
+    }
+    outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::cout << (outcome.failures.empty() ? "PASS " : "FAIL ") << cs.name << "  (" << dir.string() << ")\n";
+    for (const std::string& f : outcome.failures) std::cout << "     " << f << "\n";
+    outcomes.push_back(std::move(outcome));
+  }
+  std::size_t met = 0;
+  for (const CheckOutcome& o : outcomes) met += o.failures.empty() ? 1 : 0;
+  std::cout << met << " of " << outcomes.size() << " sessions met their expectations\n";
+  if (!junit.empty()) {
+    std::ofstream x(junit);
+    x << junit_xml(file, outcomes);
+    if (!x) throw std::runtime_error("cannot write " + junit);
+    std::cout << "wrote " << junit << "\n";
+  }
+  if (bad_input) return 2;
+  if (broken) return 1;
+  return met == outcomes.size() ? 0 : kExitExpectations;
 }
 
 int cmd_validate(const std::string& path) {
@@ -412,6 +468,14 @@ int main(int argc, char** argv) {
   inspect_cmd->add_option("mesh", mesh_path, "Mesh file: .msh (2.2/4.1 ASCII), .node/.ele, .vtu")->required();
   inspect_cmd->add_flag("--json", json, "Print JSON");
 
+  std::string check_file, junit;
+  auto* check_cmd = app.add_subcommand(
+      "check", "Replay the sessions of a check file and test each against its expectations (CI)");
+  check_cmd->add_option("file", check_file, "Check file (YAML): sessions and what each must show")
+      ->required();
+  check_cmd->add_option("--out", out, "Folder for the replays' outputs, one sub-folder a session")
+      ->capture_default_str();
+  check_cmd->add_option("--junit", junit, "Write the results as JUnit XML to this file");
   auto* make_log_cmd =
       app.add_subcommand("make-log", "Generate the pose log of a scenario's task (the bundled log)");
   make_log_cmd->add_option("scenario", scenario, "Scenario YAML with a task")->required();
@@ -479,6 +543,7 @@ int main(int argc, char** argv) {
   try {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, image_args);
     if (*validate_cmd) return cmd_validate(scenario);
+    if (*check_cmd) return cmd_check(check_file, out, junit);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
