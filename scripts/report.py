@@ -136,6 +136,9 @@ def read_frames(folder):
         if len(row) != len(header):
             raise BadInput(f"{path}: line {line}: {len(row)} fields, the header has {len(header)}")
         for c, i in index.items():
+            if c == "material_depth" and row[i] == "":
+                frames[c].append(0.0)  # the tip not located in the tissue: no depth (plotted as such)
+                continue
             try:
                 v = float(row[i])
             except ValueError:
@@ -243,7 +246,7 @@ def plot_top_view(frames, incisions):
     cut = [i for i, v in enumerate(frames["cutting"]) if v > 0]
     if cut:
         ax.plot([x[i] for i in cut], [y[i] for i in cut], "o", ms=2.5, color="#e6550d",
-                zorder=4, label="frames that cut edges")
+                zorder=4, label="frames cutting")
     ax.set_xlim(min(xs) - 1, max(xs) + 1)
     ax.set_ylim(min(ys) - 1, max(ys) + 1)
     ax.set_aspect("equal", adjustable="datalim")
@@ -273,7 +276,11 @@ def plot_depth(frames, incisions):
             s = [frames["path_s"][i] * MM for i in idx]
             d = [frames["material_depth"][i] * MM for i in idx]
             deepest = max(deepest, max(d))
-            ax.plot(s, d, "-", lw=0.7, alpha=0.4, color=colour)  # the order, faintly
+            for a, b in runs(frames["in_tissue"][i] > 0 for i in range(len(frames["t"]))):
+                # the order within one pass under the surface, faintly
+                part = [n for n, i in enumerate(idx) if a <= i < b]
+                ax.plot([s[n] for n in part], [d[n] for n in part], "-", lw=0.7, alpha=0.4,
+                        color=colour)
             ax.plot(s, d, "o", ms=3.5, color=colour, label=f"incision {k + 1}")
     ax.set_ylim(deepest * 1.15 + 0.1, 0)  # depth grows downwards, the surface on top
     ax.set(xlabel="along the target path [mm]", ylabel="depth in the tissue [mm]",
@@ -422,8 +429,9 @@ def components_table(components):
 
 def incisions_table(incisions):
     head = ("<tr><th>#</th><th>length [mm]</th><th>tolerance [mm]</th><th>coverage</th>"
-            "<th>deviation mean / max [mm]</th><th>Fréchet [mm]</th><th>depth mean / max [mm]</th>"
-            "<th>accepted depth [mm]</th><th>depth in band</th><th>bevel mean / max</th>"
+            "<th>deviation mean / max [mm]</th><th>Fréchet [mm]</th>"
+            "<th>depth mean / max [mm]</th><th>accepted depth [mm]</th><th>depth in band</th>"
+            "<th>bevel mean / max</th>"
             "<th>strokes</th><th>hesi&shy;tations</th></tr>")
     rows = []
     for k, inc in enumerate(incisions):
@@ -465,7 +473,7 @@ def session_page(session, progress_link=None):
             + (f" · <a href='{esc(progress_link)}'>all attempts</a>" if progress_link else "")
             + "</div><div class='head'>"]
     warnings = [w for w in session["report"].get("warnings") or [] if isinstance(w, dict)]
-    if warnings:  # the replay doubts its own figures: say so before the score
+    if warnings:  # the replay doubts its own figures: say so beside the score
         body.append("<div class='warn'><b>Warnings of the replay</b> (the figures may mislead):"
                     "<ul>" + "".join(f"<li><code>{esc(w.get('code', '?'))}</code>: "
                                      f"{esc(w.get('message', ''))}</li>" for w in warnings)
@@ -488,15 +496,16 @@ def session_page(session, progress_link=None):
                            "The tip's path in the tissue seen from above (where it was, world "
                            "coordinates)" + (" over each numbered target and its tolerance band "
                                              "(as drawn on the tissue at rest)" if incisions
-                                             else "") + ". Orange dots: frames that cut edges."))
+                                             else "") + ". Orange dots: frames in which the blade was cutting."))
         if incisions:
             unknown = sum(1 for i in range(len(frames["t"])) if frames["in_tissue"][i] > 0
                           and frames["cutting"][i] > 0 and frames["material_depth"][i] <= 0)
             body.append(figure(plot_depth(frames, incisions),
                                "Depth of the tip below the surface in the tissue's own measure "
                                "(the one the task's band is compared with) at the frames in "
-                               "which it cut edges, against the position along the target it "
-                               "was nearest to; the faint line joins them in time order."
+                               "which the blade was cutting, against the position along the target it "
+                               "was nearest to; the faint line joins them in time order within "
+                               "each pass under the surface."
                                + (f" Left out: {unknown} cutting frame(s) whose depth in this "
                                   "measure is recorded as 0." if unknown else "")))
         body.append(figure(plot_force_speed(frames),
@@ -511,9 +520,9 @@ def session_page(session, progress_link=None):
 
 
 def progress_page(sessions, pages):
-    # the least passing score is not in the report: a component named 'score' if one has it
-    threshold = next((c["threshold"] for s in sessions for c in components_of(s)
-                      if c["name"] == "score" and c["threshold"] is not None), DEFAULT_PASS_SCORE)
+    # the least passing score, task.pass_score in the report (the last attempt's scenario)
+    threshold = next((float(task_of(s)["pass_score"]) for s in reversed(sessions)
+                      if task_of(s) and "pass_score" in task_of(s)), DEFAULT_PASS_SCORE)
     rows = []
     for n, (s, link) in enumerate(zip(sessions, pages), start=1):
         task, inputs = task_of(s), s["report"].get("inputs") or {}

@@ -1,4 +1,6 @@
 // scalpelsim: the command-line program. Every command prints its own --help.
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -9,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -202,6 +205,28 @@ int cmd_check(const std::string& check_path, const std::string& out, const std::
   return met == outcomes.size() ? 0 : kExitExpectations;
 }
 
+// The instructor's pages: scripts/report.py (Python 3 and matplotlib) over replay outputs.
+// SCALPEL_PYTHON names the interpreter; else Debian's, where python3-matplotlib installs.
+int cmd_report(const std::vector<std::string>& sessions, const std::string& out) {
+  const fs::path script = fs::path(SCALPEL_SOURCE_DIR) / "scripts/report.py";
+  if (!fs::exists(script)) throw std::runtime_error("the report script is missing: " + script.string());
+  const char* env = std::getenv("SCALPEL_PYTHON");
+  const std::string python =
+      env && *env ? env : (fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3");
+  std::vector<std::string> args = {python, script.string(), "--out", out};
+  args.insert(args.end(), sessions.begin(), sessions.end());
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ) != 0)
+    throw std::runtime_error("cannot run " + python + " (install python3 and python3-matplotlib)");
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0) throw std::runtime_error("waiting for " + python + " failed");
+  // The script's exit codes are the program's: 0, 2 bad input, 3 matplotlib missing.
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 3;
+}
+
 int cmd_validate(const std::string& path) {
   const Scenario scenario = load_scenario(path);
   const ScenarioMesh m = load_scenario_mesh(scenario);
@@ -225,7 +250,25 @@ int cmd_inspect(const std::string& path, bool as_json) {
   MeshFileInfo info;
   const TetMesh mesh = read_mesh(path, &info);
   const MeshSummary s = summarize(mesh);
+  // The invariants hold at rest (docs/invariants.md); a mesh scalpelsim wrote carries its rest
+  // positions, and its deformed positions may turn a sliver over, which is counted apart.
   const auto report = validate(mesh, {.reference_volume = s.rest_volume});
+  std::size_t inverted_now = 0;
+  if (info.has_rest_positions)
+    for (const TetId t : mesh.tets()) {
+      const auto v = mesh.tet_nodes(t);
+      inverted_now += signed_volume(mesh.position(v[0]), mesh.position(v[1]), mesh.position(v[2]),
+                                    mesh.position(v[3])) <= 0.0
+                          ? 1
+                          : 0;
+    }
+  std::map<int, std::size_t> tets_in;
+  for (const TetId t : mesh.tets()) ++tets_in[mesh.region(t)];
+  const auto region_name = [&info](int id) {
+    for (const MeshRegion& r : info.regions)
+      if (r.id == id && !r.name.empty()) return r.name;
+    return std::string();
+  };
   if (as_json) {
     nlohmann::ordered_json j;
     j["file"] = path;
@@ -234,6 +277,10 @@ int cmd_inspect(const std::string& path, bool as_json) {
     j["boundary_faces"] = s.boundary_faces;
     j["components"] = s.components;
     j["regions"] = s.regions;
+    nlohmann::ordered_json regions = nlohmann::ordered_json::array();
+    for (const auto& [id, n] : tets_in)
+      regions.push_back({{"id", id}, {"name", region_name(id)}, {"tetrahedra", n}});
+    j["region_list"] = regions;
     j["rest_volume"] = s.rest_volume;
     j["bounding_box"] = {{"min", {s.box_min.x(), s.box_min.y(), s.box_min.z()}},
                          {"max", {s.box_max.x(), s.box_max.y(), s.box_max.z()}}};
@@ -241,6 +288,9 @@ int cmd_inspect(const std::string& path, bool as_json) {
         {"min", s.quality_min}, {"mean", s.quality_mean}, {"max", s.quality_max}, {"slivers", s.slivers}};
     j["edge_length"] = {{"min", s.edge_min}, {"max", s.edge_max}};
     j["reoriented_tetrahedra"] = info.reoriented_tets;
+    j["unused_points"] = info.unused_points;
+    j["rest_positions_from_file"] = info.has_rest_positions;
+    j["inverted_in_current_positions"] = inverted_now;
     j["invariants"] = {{"oriented", report.passed[1]},
                        {"conforming", report.passed[2]},
                        {"watertight", report.passed[3]},
@@ -249,13 +299,23 @@ int cmd_inspect(const std::string& path, bool as_json) {
   } else {
     std::cout << path << "\n"
               << "  nodes " << s.nodes << ", tetrahedra " << s.tets << ", boundary faces " << s.boundary_faces
-              << "\n"
+              << (info.unused_points ? ", unused points " + std::to_string(info.unused_points) : "") << "\n"
               << "  components " << s.components << ", regions " << s.regions << ", volume " << s.rest_volume
-              << " m^3\n"
+              << " m^3\n";
+    for (const auto& [id, n] : tets_in) {
+      const std::string name = region_name(id);
+      std::cout << "    region " << id << (name.empty() ? "" : " '" + name + "'") << ": " << n
+                << " tetrahedra\n";
+    }
+    std::cout << "  bounding box [" << s.box_min.x() << ", " << s.box_max.x() << "] x [" << s.box_min.y()
+              << ", " << s.box_max.y() << "] x [" << s.box_min.z() << ", " << s.box_max.z() << "] m"
+              << (info.has_rest_positions ? " (at rest, from the file's rest_position)" : "") << "\n"
               << "  quality (6 sqrt2 V / l_rms^3) min " << s.quality_min << ", mean " << s.quality_mean
               << ", max " << s.quality_max << ", slivers (< 0.1) " << s.slivers << "\n"
-              << "  edge length min " << s.edge_min << " m, max " << s.edge_max << " m\n"
-              << "  invariants: " << (report.ok() ? "all hold" : "BROKEN") << "\n";
+              << "  edge length min " << s.edge_min << " m, max " << s.edge_max << " m\n";
+    if (info.has_rest_positions)
+      std::cout << "  inverted in the current (deformed) positions: " << inverted_now << " tetrahedra\n";
+    std::cout << "  invariants: " << (report.ok() ? "all hold" : "BROKEN") << "\n";
     if (!report.ok()) std::cout << report.summary();
   }
   return report.ok() ? 0 : 1;
@@ -468,6 +528,15 @@ int main(int argc, char** argv) {
   inspect_cmd->add_option("mesh", mesh_path, "Mesh file: .msh (2.2/4.1 ASCII), .node/.ele, .vtu")->required();
   inspect_cmd->add_flag("--json", json, "Print JSON");
 
+  std::vector<std::string> report_sessions;
+  std::string report_out = "report";
+  auto* report_cmd = app.add_subcommand(
+      "report",
+      "Write the instructor's HTML pages from replay outputs: one per session, and a progress page");
+  report_cmd
+      ->add_option("sessions", report_sessions, "Replay output folders (--out of replay), in attempt order")
+      ->required();
+  report_cmd->add_option("--out", report_out, "Folder for the pages")->capture_default_str();
   std::string check_file, junit;
   auto* check_cmd = app.add_subcommand(
       "check", "Replay the sessions of a check file and test each against its expectations (CI)");
@@ -544,6 +613,7 @@ int main(int argc, char** argv) {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, image_args);
     if (*validate_cmd) return cmd_validate(scenario);
     if (*check_cmd) return cmd_check(check_file, out, junit);
+    if (*report_cmd) return cmd_report(report_sessions, report_out);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);

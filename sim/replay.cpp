@@ -63,6 +63,7 @@ json task_json(const TaskScore& t) {
   json j;
   j["score"] = t.score;
   j["passed"] = t.passed;
+  j["pass_score"] = t.pass_score;
   json components = json::array();
   for (const ScoreComponent& c : t.components) {
     json jc;
@@ -298,9 +299,11 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       const ToolTracePoint& p = sim.scorer().last();
       const std::size_t edges = sim.cutter().totals().edges_cut;
       series << k << ',' << end << ',' << p.tip.x() << ',' << p.tip.y() << ',' << p.tip.z() << ','
-             << (p.in_tissue ? 1 : 0) << ',' << p.depth << ',' << p.material_depth << ',' << p.bevel_deg
-             << ',' << p.incision << ',' << p.path_s << ',' << p.deviation << ',' << p.speed << ',' << p.force
-             << ',' << (edges > edges_before ? 1 : 0) << ',' << edges - edges_before << '\n';
+             << (p.in_tissue ? 1 : 0) << ',' << p.depth << ',';
+      if (p.has_material_depth) series << p.material_depth;
+      series << ',' << p.bevel_deg << ',' << p.incision << ',' << p.path_s << ',' << p.deviation << ','
+             << p.speed << ',' << p.force << ',' << (edges > edges_before ? 1 : 0) << ','
+             << edges - edges_before << '\n';
       edges_before = edges;
     }
     frame_seconds.push_back(

@@ -143,7 +143,8 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
   const double dt = has_last_ ? t - last_.t : 0.0;
   const double moved = has_last_ ? (pose.tip - last_.tip).norm() : 0.0;
   p.speed = dt > 0.0 ? moved / dt : 0.0;
-  p.cutting = p.in_tissue && stats.edges_cut + stats.face_pierces > 0;
+  // Cutting: the tip under the surface and the sweep in the tissue (new cut data or not).
+  p.cutting = p.in_tissue && (stats.edges_cut + stats.face_pierces > 0 || stats.tets_touched > 0);
   const Vec3 where = rest_tip.value_or(pose.tip);
   const Nearest near = nearest(where);
   p.incision = near.incision;
@@ -152,6 +153,7 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
   if (p.in_tissue) {
     p.depth = surface->depth;
     p.material_depth = material_depth.value_or(0.0);
+    p.has_material_depth = material_depth.has_value();
     // The bevel (skiving angle): the blade's plane, spanned by its axis and its sharp edge's
     // direction (else its motion), tilted away from the surface normal. Leaning forward or back
     // along the incision keeps the plane and is not a bevel.
@@ -189,8 +191,8 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
     }
   }
 
-  if (p.in_tissue && (stats.edges_cut + stats.face_pierces > 0 || stats.tets_touched > 0)) {
-    // Cutting: the blade sweeps tissue. Force on the hand against the band, over the time spent.
+  if (p.cutting) {
+    // Force on the hand against the band, over the time spent.
     ++cutting_samples_;
     cutting_time_ += dt;
     force_sum_ += force;
@@ -426,10 +428,12 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     if (most_strokes == 0)
       c.why = "The blade never cut the tissue.";
     else if (extra_strokes > 0)
-      c.why = format(
-          "%.0f re-entries: the blade left an incision and came back to it; each leaves a ragged "
-          "wound edge.",
-          extra_strokes);
+      c.why =
+          format(extra_strokes == 1 ? "%.0f re-entry: the blade left an incision and came back to it; it "
+                                      "leaves a ragged wound edge."
+                                    : "%.0f re-entries: the blade left an incision and came back to it; each "
+                                      "leaves a ragged wound edge.",
+                 extra_strokes);
     add(c);
   }
   {
@@ -476,18 +480,19 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     c.points = out.protected_area > 0 ? 0.0 : 5 * clamp01(1 - f / (2 * pass.collateral));
     c.passed = f <= pass.collateral;
     if (f > 0)
-      c.why =
-          format("%.1f %% of the cut surface (%.1f mm^2) lies outside the tolerance band of every target.",
-                 100 * f, 1e6 * out.collateral_area);
+      c.why = format("%.1f %% of the cut surface (%.1f mm²) lies outside the tolerance band of every target.",
+                     100 * f, 1e6 * out.collateral_area);
+    if (out.protected_area > 0)
+      c.why +=
+          std::string(c.why.empty() ? "" : " ") + "No points: the blade cut into tissue the task protects.";
     add(c);
   }
   if (!task_.protected_regions.empty()) {
     ScoreComponent c{"protected", "mm^2", 1e6 * out.protected_area, 0.0, true, true, 0, 0, ""};
     c.passed = out.protected_area == 0.0;
     if (!c.passed)
-      c.why =
-          format("The blade cut %.2f mm^2 into tissue the task protects; collateral loses all its points.",
-                 1e6 * out.protected_area);
+      c.why = format("The blade cut %.2f mm² into tissue the task protects; collateral loses all its points.",
+                     1e6 * out.protected_area);
     add(c);
   }
   bool all = true;
@@ -495,6 +500,7 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     out.score += c.points;
     all = all && c.passed;
   }
+  out.pass_score = pass.score;
   out.passed = all && out.score >= pass.score;
   return out;
 }

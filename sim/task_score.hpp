@@ -53,6 +53,7 @@ struct IncisionScore {
 struct TaskScore {
   double score = 0;  // [0, 100], the sum of the components' points
   bool passed = false;
+  double pass_score = 0;  // the least score that passes (task.pass.score)
   std::vector<ScoreComponent> components;
   std::vector<IncisionScore> incisions;
   double targets_length = 0;   // [m]
@@ -75,13 +76,14 @@ struct ToolTracePoint {
   // [m] of the tip's material point below the surface, both at rest: how far into the tissue's layers
   // the blade has gone, whatever the tissue's stretch and the blade's dimple (what the task scores).
   double material_depth = 0;
-  double bevel_deg = 0;  // in the tissue
-  int incision = -1;     // nearest target (-1: no task)
-  double path_s = 0;     // [m] arc length of the nearest point on it
-  double deviation = 0;  // [m] lateral, of the tip's rest position from it
-  double speed = 0;      // [m/s] of the tip
-  double force = 0;      // [N] on the hand
-  bool cutting = false;  // this sample cut the tissue (new edges or faces)
+  double bevel_deg = 0;             // in the tissue
+  int incision = -1;                // nearest target (-1: no task)
+  double path_s = 0;                // [m] arc length of the nearest point on it
+  double deviation = 0;             // [m] lateral, of the tip's rest position from it
+  double speed = 0;                 // [m/s] of the tip
+  double force = 0;                 // [N] on the hand
+  bool has_material_depth = false;  // the tip was located in the tissue (else material_depth is 0)
+  bool cutting = false;             // the tip under the surface and the sweep in the tissue (docs/scoring.md)
 };
 
 class TaskScorer {

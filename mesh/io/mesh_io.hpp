@@ -40,6 +40,10 @@ struct MeshFileInfo {
   std::vector<MeshRegion> regions;   // sorted by id
   std::size_t reoriented_tets = 0;   // tetrahedra given with negative orientation
   std::size_t skipped_elements = 0;  // elements that are not tetrahedra
+  std::size_t unused_points = 0;     // points no tetrahedron uses (left out of the mesh)
+  // The file gave rest positions besides the points (a .vtu's `rest_position` point array, as
+  // scalpelsim writes): the mesh's rest positions are those, its current positions the points.
+  bool has_rest_positions = false;
 
   // Region id of a physical name, or -1.
   [[nodiscard]] int region_id(std::string_view name) const;

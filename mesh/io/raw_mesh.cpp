@@ -22,6 +22,8 @@ TetMesh build_mesh(RawMesh& raw, MeshFileInfo* info) {
   }
 
   // Vertex checks and orientation (Invariant 1 needs orient3d > 0 in the rest configuration).
+  const std::vector<Vec3>& at_rest = raw.rest.empty() ? raw.points : raw.rest;
+  out.has_rest_positions = !raw.rest.empty();
   for (std::size_t t = 0; t < raw.tets.size(); ++t) {
     auto& v = raw.tets[t];
     for (int i = 0; i < 4; ++i)
@@ -30,7 +32,7 @@ TetMesh build_mesh(RawMesh& raw, MeshFileInfo* info) {
           throw InputError(raw.tet_file, raw.lines[t], 0, "tetrahedron",
                            "repeated vertex (local vertices " + std::to_string(i + 1) + " and " +
                                std::to_string(j + 1) + ")");
-    const int s = orient3d(raw.points[v[0]], raw.points[v[1]], raw.points[v[2]], raw.points[v[3]]);
+    const int s = orient3d(at_rest[v[0]], at_rest[v[1]], at_rest[v[2]], at_rest[v[3]]);
     if (s == 0) throw InputError(raw.tet_file, raw.lines[t], 0, "tetrahedron", "degenerate (zero volume)");
     if (s < 0) {
       std::swap(v[2], v[3]);
@@ -44,8 +46,13 @@ TetMesh build_mesh(RawMesh& raw, MeshFileInfo* info) {
     for (const std::uint32_t n : v) used[n] = 1;
   TetMesh mesh;
   std::vector<NodeId> node(raw.points.size());
-  for (std::size_t i = 0; i < raw.points.size(); ++i)
-    if (used[i]) node[i] = mesh.add_node(raw.points[i]);
+  for (std::size_t i = 0; i < raw.points.size(); ++i) {
+    if (!used[i]) {
+      ++out.unused_points;
+      continue;
+    }
+    node[i] = mesh.add_node(at_rest[i], raw.points[i]);
+  }
   for (std::size_t t = 0; t < raw.tets.size(); ++t) {
     const auto& v = raw.tets[t];
     mesh.add_tet({node[v[0]], node[v[1]], node[v[2]], node[v[3]]}, id_of_tag[raw.tags[t]]);

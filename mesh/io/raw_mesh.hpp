@@ -17,6 +17,7 @@ namespace scalpel::mesh_io {
 // A file's tetrahedra before they enter a TetMesh: vertex indices into `points` (file order).
 struct RawMesh {
   std::vector<Vec3> points;
+  std::vector<Vec3> rest;  // rest positions per point when the file has them (our .vtu); else empty
   std::vector<std::array<std::uint32_t, 4>> tets;
   std::vector<int> tags;   // region tag per tet
   std::vector<int> lines;  // line of each tet in `tet_file`

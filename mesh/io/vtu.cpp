@@ -109,7 +109,7 @@ TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
   std::vector<std::pair<std::string, int>> stack;  // enclosing elements and the lines they open on
   stack.emplace_back(tag.name, tag.line);
   long long npoints = -1, ncells = -1;
-  std::vector<double> points;
+  std::vector<double> points, rest;
   std::vector<long long> connectivity, offsets, types, region;
   std::vector<int> connectivity_lines;
   int connectivity_end_line = 0;
@@ -140,7 +140,7 @@ TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
       const bool wanted =
           parent == "Points" ||
           (parent == "Cells" && (array == "connectivity" || array == "offsets" || array == "types")) ||
-          (parent == "CellData" && array == "region");
+          (parent == "CellData" && array == "region") || (parent == "PointData" && array == "rest_position");
       if (wanted && (!format || *format != "ascii"))
         x.fail(tag.line, field,
                "format \"" + (format ? *format : std::string()) +
@@ -178,6 +178,10 @@ TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
           connectivity_end_line = tag.line;
         }
         have_conn = true;
+      } else if (parent == "PointData" && array == "rest_position") {
+        const std::string* nc = tag.attribute("NumberOfComponents");
+        if (!nc || *nc != "3") x.fail(tag.line, field + " NumberOfComponents", "must be 3");
+        rest = read_array<double>(x, tag, field, static_cast<std::size_t>(npoints) * 3, nullptr, parse_real);
       } else if (parent == "CellData" && array == "region") {
         region =
             read_array<long long>(x, tag, field, static_cast<std::size_t>(ncells), nullptr, parse_integral);
@@ -205,6 +209,11 @@ TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
   raw.points.resize(static_cast<std::size_t>(npoints));
   for (std::size_t i = 0; i < raw.points.size(); ++i)
     raw.points[i] = Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+  if (!rest.empty()) {
+    raw.rest.resize(raw.points.size());
+    for (std::size_t i = 0; i < raw.rest.size(); ++i)
+      raw.rest[i] = Vec3(rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]);
+  }
   const long long used = ncells > 0 ? offsets.back() : 0;
   if (used != static_cast<long long>(connectivity.size()))
     x.fail(connectivity_end_line, "DataArray 'connectivity'",
