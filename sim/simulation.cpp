@@ -110,18 +110,19 @@ void Simulation::on_sample(const ToolSample& s) {
   {
     // Where the tip is under the skin (a probe of the surface only when it is near the tissue) and
     // where in the tissue (rest coordinates), for the score.
+    // Under it: the blade's line from the tip leaves the tissue through it. Depth: the distance to
+    // its nearest point, now and (for the tip's material point) at rest.
     std::optional<SurfaceHit> hit;
-    if (((pose.tip - bounds_lo_).array() >= 0).all() && ((pose.tip - bounds_hi_).array() <= 0).all())
-      hit = surface_->above(mesh_, pose.tip, pose.back);
+    if (((pose.tip - bounds_lo_).array() >= 0).all() && ((pose.tip - bounds_hi_).array() <= 0).all() &&
+        surface_->above(mesh_, pose.tip, pose.back))
+      hit = surface_->nearest(mesh_.positions(), pose.tip);
     std::optional<Vec3> rest_tip;
     std::optional<double> material_depth;
     if (hit)
       if (const auto at = cutter_->locate(pose.tip, kBladeHalfThickness)) {
         rest_tip = Vec3::Zero();
         for (int i = 0; i < 4; ++i) *rest_tip += at->weights[i] * mesh_.rest(at->corners[i]);
-        if (const auto rest_hit =
-                surface_->above(mesh_.rest_positions(), *rest_tip, *rest_tip + pose.back - pose.tip))
-          material_depth = rest_hit->depth;
+        material_depth = surface_->nearest(mesh_.rest_positions(), *rest_tip).depth;
       }
     // The hand pushes against the tissue's resistance to the blade (what a device renders, before
     // its own force limit); the last frame's contact sets it.

@@ -1,7 +1,8 @@
-// Where the tissue's outer surface is above the blade's tip, in the current configuration: how deep
-// the tip is below it and which way the surface faces there. The task score measures depth and the
-// blade's bevel with it at the moment of cutting (docs/scoring.md), so on a curved or deformed organ
-// depth is depth below the skin the blade entered, not below a bounding box.
+// Where the tissue's outer surface is around the blade's tip: whether the tip is under it, how deep
+// (the distance to the nearest point of the surface) and which way the surface faces there. The
+// task score measures depth and the blade's bevel with it at the moment of cutting
+// (docs/scoring.md), so on a curved or deformed organ depth is depth below the skin around the
+// blade, not below a bounding box.
 //
 // The surface is the outer boundary of the uncut mesh. Cuts never split the original corner nodes
 // (cutting/cut_engine.hpp), so its triangles stay defined by the corners' current positions as the
@@ -19,8 +20,8 @@
 namespace scalpel {
 
 struct SurfaceHit {
-  double depth = 0;            // [m] of the tip below the surface plane where the blade enters it
-  Vec3 point = Vec3::Zero();   // where the blade's line leaves the tissue [m]
+  double depth = 0;            // [m] of the tip below the surface (see the functions)
+  Vec3 point = Vec3::Zero();   // on the surface [m]
   Vec3 normal = Vec3::Zero();  // outward unit normal of the surface there
 };
 
@@ -36,9 +37,14 @@ class SurfaceProbe {
                                                 const Vec3& back) const {
     return above(mesh.positions(), tip, back);
   }
-  // The same in positions `x` by node slot (the rest positions: depth in the material).
+  // The same in positions `x` by node slot.
   [[nodiscard]] std::optional<SurfaceHit> above(const std::vector<Vec3>& x, const Vec3& tip,
                                                 const Vec3& back) const;
+
+  // The nearest point of the surface to `p` in positions `x` (the rest positions: depth in the
+  // material): its distance as `depth`, the point and the outward normal of its triangle. On a
+  // curved organ this is the depth below the skin around the tip, whichever way the blade leans.
+  [[nodiscard]] SurfaceHit nearest(const std::vector<Vec3>& x, const Vec3& p) const;
 
  private:
   std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented

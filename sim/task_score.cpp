@@ -191,6 +191,9 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
     }
   }
 
+  const Vec3 step = has_last_ ? Vec3(pose.tip - last_.tip) : Vec3::Zero();
+  const Vec3 forward = pose.cutting_direction.squaredNorm() > 0 ? pose.cutting_direction : step;
+  const bool advancing = step.dot(forward) > 0.0 || step.dot(pose.tip - pose.back) > 0.0;
   if (p.cutting) {
     // Force on the hand against the band, over the time spent.
     ++cutting_samples_;
@@ -209,10 +212,13 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
       const double tol = task_.incisions[k].tolerance;
       if (stroke_path_.empty() || (where - stroke_path_.back()).head<2>().norm() >= tol / 8)
         stroke_path_.push_back(where);
-      // Depth at the stations the tip is over (within the tolerance), in the tissue's own measure.
+      // Depth at the stations the tip is over (within the tolerance), in the tissue's own measure,
+      // while the tip advances into the tissue: forward (its sharp side leading) or down along the
+      // blade. Lifting out or pulling back cuts nothing new, though it may drag the tissue along.
       for (Target& other : targets_)
         for (Station& st : other.stations)
-          if ((st.p - where).head<2>().norm() <= tol) st.depth = std::max(st.depth, p.material_depth);
+          if (advancing && (st.p - where).head<2>().norm() <= tol)
+            st.depth = std::max(st.depth, p.material_depth);
     }
   }
   last_ = p;
