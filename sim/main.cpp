@@ -90,7 +90,7 @@ struct ImageArgs {
 };
 
 int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out,
-               bool no_progress, bool strict, const ImageArgs& image_args) {
+               bool no_progress, bool strict, std::size_t mesh_every, const ImageArgs& image_args) {
   const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
   const Scenario scenario = load_scenario(scenario_path);
   fs::path log_path = log_arg;
@@ -101,6 +101,7 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   }
   ReplayOptions options;
   options.out_dir = out;
+  options.mesh_every = mesh_every;
   if (!no_progress && isatty(STDERR_FILENO)) options.progress = print_progress;
 #ifdef SCALPEL_HAVE_GUI
   std::unique_ptr<ReplayPictures> pictures;
@@ -513,10 +514,13 @@ int main(int argc, char** argv) {
       "--strict", strict,
       "Exit 5 when the report holds warnings (implausible input or physics, docs/formats.md)");
   ImageArgs image_args;
+  std::size_t mesh_every = 0;
   replay_cmd->add_flag("--images", image_args.images,
                        "Also write PNG pictures of the final state: top.png, oblique.png, section.png");
   replay_cmd->add_option("--image-every", image_args.every,
                          "And the oblique view every N frames, as frames/oblique_<frame>.png");
+  replay_cmd->add_option("--mesh-every", mesh_every,
+                         "A ParaView time series: the mesh every N frames in series/, listed in mesh.pvd");
   replay_cmd->add_option("--image-size", image_args.size, "Picture size, WIDTHxHEIGHT")
       ->capture_default_str();
 
@@ -610,7 +614,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, image_args);
+    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, mesh_every, image_args);
     if (*validate_cmd) return cmd_validate(scenario);
     if (*check_cmd) return cmd_check(check_file, out, junit);
     if (*report_cmd) return cmd_report(report_sessions, report_out);

@@ -4,6 +4,7 @@
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -239,6 +240,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   // Tissue carried far from where it started: the largest displacement and the frame it was first
   // beyond kDisplacementLimit of the mesh's diagonal.
   double displacement_max = 0.0;
+  std::vector<std::pair<double, std::string>> series_files;  // the mesh time series: time, file
   std::size_t displaced_frame = 0;
   // The time series beside the report (docs/formats.md, frames.csv): one row per frame, the tool
   // at the frame's last sample.
@@ -314,6 +316,13 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       for (const NodeId n : m.nodes()) d = std::max(d, (m.position(n) - m.rest(n)).norm());
       displacement_max = std::max(displacement_max, d);
       if (displaced_frame == 0 && d > kDisplacementLimit * diagonal) displaced_frame = k;
+    }
+    if (options.mesh_every > 0 && (k % options.mesh_every == 0 || k == frames)) {
+      char name[32];
+      std::snprintf(name, sizeof name, "series/mesh_%06zu.vtu", k);
+      std::filesystem::create_directories(options.out_dir / "series");
+      write_mesh_vtu(sim, options.out_dir / name);
+      series_files.emplace_back(end, name);
     }
     if (options.on_frame) options.on_frame(sim, k, k == frames);
     if (options.progress) options.progress(static_cast<double>(k) / static_cast<double>(frames));
@@ -486,6 +495,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   series.flush();
   if (!series) throw std::runtime_error("cannot write " + (options.out_dir / "frames.csv").string());
   write_mesh_vtu(sim, options.out_dir / "mesh.vtu");
+  if (!series_files.empty()) {
+    std::ofstream pvd(options.out_dir / "mesh.pvd");
+    pvd.precision(9);
+    pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\">\n  <Collection>\n";
+    for (const auto& [t, file] : series_files)
+      pvd << "    <DataSet timestep=\"" << t << "\" part=\"0\" file=\"" << file << "\"/>\n";
+    pvd << "  </Collection>\n</VTKFile>\n";
+    if (!pvd) throw std::runtime_error("cannot write " + (options.out_dir / "mesh.pvd").string());
+  }
   return {report, run, check.ok()};
 }
 

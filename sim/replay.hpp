@@ -25,6 +25,9 @@ struct ReplayOptions {
   // Called after every frame with the simulation as it stands, the frame's number (from 1) and
   // whether it is the last, for pictures. It must not change the simulation.
   std::function<void(const Simulation&, std::size_t, bool)> on_frame;
+  // A ParaView time series of the mesh: every this many frames and at the last, the mesh as
+  // out_dir/series/mesh_<frame>.vtu, listed with its time in out_dir/mesh.pvd; 0: none.
+  std::size_t mesh_every = 0;
 };
 
 struct ReplayResult {

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -152,4 +153,27 @@ TEST_CASE("replay warnings: soft tissue dragged far by a blade with a high resis
   const ReplayResult r = replay(s, *s.log, options);
   CAPTURE(r.report["warnings"].dump());
   CHECK(has(codes(r), "tissue_displaced"));
+}
+
+TEST_CASE("replay: a ParaView time series of the mesh every N frames") {
+  Scenario s = bundled();
+  s.simulation.duration = 0.5;  // 30 frames
+  const fs::path dir = fresh_dir("series");
+  ReplayOptions options;
+  options.out_dir = dir / "out";
+  options.mesh_every = 12;
+  (void)replay(s, *s.log, options);
+  std::ifstream pvd(dir / "out/mesh.pvd");
+  REQUIRE(pvd);
+  const std::string text((std::istreambuf_iterator<char>(pvd)), std::istreambuf_iterator<char>());
+  // Frames 12 and 24, and the last (30), with their times.
+  CHECK(text.find("timestep=\"0.2\" part=\"0\" file=\"series/mesh_000012.vtu\"") != std::string::npos);
+  CHECK(text.find("timestep=\"0.4\" part=\"0\" file=\"series/mesh_000024.vtu\"") != std::string::npos);
+  CHECK(text.find("timestep=\"0.5\" part=\"0\" file=\"series/mesh_000030.vtu\"") != std::string::npos);
+  for (const char* f : {"series/mesh_000012.vtu", "series/mesh_000024.vtu", "series/mesh_000030.vtu"}) {
+    MeshFileInfo info;
+    const TetMesh m = read_vtu((dir / "out" / f).string(), &info);
+    CHECK(m.tet_count() > 0);
+    CHECK(info.has_rest_positions);
+  }
 }
