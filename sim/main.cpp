@@ -228,7 +228,7 @@ int cmd_report(const std::vector<std::string>& sessions, const std::string& out)
   return WIFEXITED(status) ? WEXITSTATUS(status) : 3;
 }
 
-int cmd_validate(const std::string& path) {
+int cmd_validate(const std::string& path, bool strict) {
   const Scenario scenario = load_scenario(path);
   const ScenarioMesh m = load_scenario_mesh(scenario);
   (void)resolve_materials(scenario, m.regions, m.mesh);
@@ -244,7 +244,9 @@ int cmd_validate(const std::string& path) {
   std::cout << "  mesh invariants hold\n";
   if (scenario.log && !fs::exists(*scenario.log))
     throw InputError(path, 0, 0, "log", "the pose log '" + scenario.log->string() + "' does not exist");
-  return 0;
+  const auto warnings = scenario_warnings(scenario, m.mesh);
+  for (const InputWarning& w : warnings) std::cerr << "warning: " << w.message << " (" << w.code << ")\n";
+  return strict && !warnings.empty() ? kExitStrict : 0;
 }
 
 int cmd_inspect(const std::string& path, bool as_json) {
@@ -526,6 +528,9 @@ int main(int argc, char** argv) {
 
   auto* validate_cmd = app.add_subcommand("validate", "Check a scenario and its mesh without running it");
   validate_cmd->add_option("scenario", scenario, "Scenario YAML")->required();
+  validate_cmd->add_flag(
+      "--strict", strict,
+      "Exit 5 when the scenario draws warnings (a mesh in millimetres, a task outside it)");
 
   auto* inspect_cmd =
       app.add_subcommand("inspect", "Counts, volume, components, quality and invariants of a mesh file");
@@ -615,7 +620,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, mesh_every, image_args);
-    if (*validate_cmd) return cmd_validate(scenario);
+    if (*validate_cmd) return cmd_validate(scenario, strict);
     if (*check_cmd) return cmd_check(check_file, out, junit);
     if (*report_cmd) return cmd_report(report_sessions, report_out);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);

@@ -169,6 +169,32 @@ json severed_json(const Simulation& sim) {
 
 }  // namespace
 
+std::vector<InputWarning> scenario_warnings(const Scenario& scenario, const TetMesh& mesh) {
+  std::vector<InputWarning> out;
+  const MeshSummary initial = summarize(mesh);
+  const double diagonal = (initial.box_max - initial.box_min).norm();
+  // Units: a mesh written in millimetres is a thousand times the blade.
+  const double blade = (scenario.tool.blade_back - scenario.tool.blade_tip).norm();
+  if (diagonal > 100 * blade || diagonal < 0.1 * blade) {
+    std::ostringstream m;
+    m << "the mesh is " << diagonal << " m across, " << diagonal / blade << " times the blade's length ("
+      << blade << " m); " << (diagonal > blade ? "is it in millimetres?" : "is the blade in millimetres?")
+      << " (SI units throughout, docs/formats.md)";
+    out.push_back({"mesh_scale", m.str()});
+  }
+  if (scenario.task)
+    for (const Incision& in : scenario.task->incisions)
+      for (const Vec3& p : in.path)
+        if ((p.head<2>().array() < initial.box_min.head<2>().array() - 1e-9 * diagonal).any() ||
+            (p.head<2>().array() > initial.box_max.head<2>().array() + 1e-9 * diagonal).any()) {
+          std::ostringstream m;
+          m << "the task's path point [" << p.x() << ", " << p.y() << ", " << p.z()
+            << "] lies outside the mesh's extent in x and y";
+          out.push_back({"task_outside_mesh", m.str()});
+        }
+  return out;
+}
+
 ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
                     const ReplayOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -216,27 +242,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   Simulation sim(scenario);
   const MeshSummary initial = summarize(sim.mesh());
   const double diagonal = (initial.box_max - initial.box_min).norm();
-  {
-    // Units: a mesh written in millimetres is a thousand times the blade.
-    const double blade = (scenario.tool.blade_back - scenario.tool.blade_tip).norm();
-    if (diagonal > 100 * blade || diagonal < 0.1 * blade) {
-      std::ostringstream m;
-      m << "the mesh is " << diagonal << " m across, " << diagonal / blade << " times the blade's length ("
-        << blade << " m); " << (diagonal > blade ? "is it in millimetres?" : "is the blade in millimetres?")
-        << " (SI units throughout, docs/formats.md)";
-      warn("mesh_scale", m.str());
-    }
-    if (scenario.task)
-      for (const Incision& in : scenario.task->incisions)
-        for (const Vec3& p : in.path)
-          if ((p.head<2>().array() < initial.box_min.head<2>().array() - 1e-9 * diagonal).any() ||
-              (p.head<2>().array() > initial.box_max.head<2>().array() + 1e-9 * diagonal).any()) {
-            std::ostringstream m;
-            m << "the task's path point [" << p.x() << ", " << p.y() << ", " << p.z()
-              << "] lies outside the mesh's extent in x and y";
-            warn("task_outside_mesh", m.str());
-          }
-  }
+  for (const InputWarning& w : scenario_warnings(scenario, sim.mesh())) warn(w.code, w.message);
   // Tissue carried far from where it started: the largest displacement and the frame it was first
   // beyond kDisplacementLimit of the mesh's diagonal.
   double displacement_max = 0.0;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -39,6 +40,15 @@ struct ReplayResult {
   nlohmann::ordered_json run;
   bool invariants_ok = false;
 };
+
+// What makes a scenario's figures doubtful before it runs (docs/formats.md, `warnings`): a mesh
+// whose size is implausible beside the blade (millimetres read as metres), a task path outside the
+// mesh. Replay and `scalpelsim validate` report them.
+struct InputWarning {
+  std::string code;
+  std::string message;
+};
+[[nodiscard]] std::vector<InputWarning> scenario_warnings(const Scenario& scenario, const TetMesh& mesh);
 
 // Throws InputError for a bad scenario or log.
 [[nodiscard]] ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
