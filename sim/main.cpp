@@ -165,7 +165,7 @@ std::string slug(const std::string& name) {
 int cmd_check(const std::string& check_path, const std::string& out, const std::string& junit) {
   const CheckFile file = load_check_file(check_path);
   std::vector<CheckOutcome> outcomes;
-  bool broken = false, bad_input = false;
+  bool broken = false, bad_input = false, failed_run = false;
   for (std::size_t i = 0; i < file.sessions.size(); ++i) {
     const CheckSession& cs = file.sessions[i];
     CheckOutcome outcome;
@@ -186,6 +186,9 @@ int cmd_check(const std::string& check_path, const std::string& out, const std::
       // A session that cannot be replayed fails; the others still run.
       bad_input = true;
       outcome.failures.push_back(std::string("bad input: ") + e.what());
+    } catch (const std::exception& e) {
+      failed_run = true;
+      outcome.failures.push_back(std::string("the replay failed: ") + e.what());
     }
     outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::cout << (outcome.failures.empty() ? "PASS " : "FAIL ") << cs.name << "  (" << dir.string() << ")\n";
@@ -202,6 +205,7 @@ int cmd_check(const std::string& check_path, const std::string& out, const std::
     std::cout << "wrote " << junit << "\n";
   }
   if (bad_input) return 2;
+  if (failed_run) return 3;
   if (broken) return 1;
   return met == outcomes.size() ? 0 : kExitExpectations;
 }

@@ -211,7 +211,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   {
     PoseLogReader reader(log_path.string());
     if (const auto recorded_on = reader.metadata("scenario"); recorded_on && *recorded_on != scenario.name)
-      warn("log_scenario", log_path.string() + " was recorded on scenario '" + *recorded_on +
+      warn("log_scenario", log_path.filename().string() + " was recorded on scenario '" + *recorded_on +
                                "', replayed on '" + scenario.name + "'");
     const std::optional<std::string> playback = reader.metadata("playback");
     if (playback && *playback != "verbatim" && *playback != "interpolate")
@@ -250,6 +250,9 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   std::size_t displaced_frame = 0;
   // The time series beside the report (docs/formats.md, frames.csv): one row per frame, the tool
   // at the frame's last sample.
+  // Outputs a run with other options left in a reused folder would be taken for this run's.
+  for (const char* stale : {"mesh.pvd", "series", "top.png", "oblique.png", "section.png", "frames"})
+    std::filesystem::remove_all(options.out_dir / stale);
   std::filesystem::create_directories(options.out_dir);
   std::ofstream series(options.out_dir / "frames.csv");
   series << "frame,t,tip_x,tip_y,tip_z,in_tissue,depth,material_depth,bevel_deg,incision,path_s,deviation,"
@@ -310,8 +313,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
              << (p.in_tissue ? 1 : 0) << ',' << p.depth << ',';
       if (p.has_material_depth) series << p.material_depth;
       series << ',' << p.bevel_deg << ',' << p.incision << ',' << p.path_s << ',' << p.deviation << ','
-             << p.speed << ',' << p.force << ',' << (edges > edges_before ? 1 : 0) << ','
-             << edges - edges_before << '\n';
+             << p.speed << ',' << p.force << ',' << (p.cutting ? 1 : 0) << ',' << edges - edges_before
+             << '\n';
       edges_before = edges;
     }
     frame_seconds.push_back(

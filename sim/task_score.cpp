@@ -14,6 +14,7 @@ namespace {
 struct PathPoint {
   double distance = std::numeric_limits<double>::infinity();
   double s = 0;
+  Vec3 tangent = Vec3::Zero();
 };
 PathPoint nearest_on(const std::vector<Vec3>& path, const Vec3& p) {
   PathPoint best;
@@ -24,7 +25,8 @@ PathPoint nearest_on(const std::vector<Vec3>& path, const Vec3& p) {
     const double len = d.norm();
     const double t = len > 0 ? std::clamp((q - a).dot(d) / (len * len), 0.0, 1.0) : 0.0;
     const double dist = (a + t * d - q).norm();
-    if (dist < best.distance) best = {dist, s0 + t * len};
+    if (dist < best.distance)
+      best = {dist, s0 + t * len, len > 0 ? Vec3(d.x() / len, d.y() / len, 0.0) : Vec3::Zero()};
     s0 += len;
   }
   return best;
@@ -102,7 +104,7 @@ TaskScorer::Nearest TaskScorer::nearest(const Vec3& p) const {
     const double rel = q.distance / task_.incisions[i].tolerance;
     if (rel < best_rel) {
       best_rel = rel;
-      best = {static_cast<int>(i), q.distance, q.s};
+      best = {static_cast<int>(i), q.distance, q.s, q.tangent};
     }
   }
   return best;
@@ -192,7 +194,9 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
   }
 
   const Vec3 step = has_last_ ? Vec3(pose.tip - last_.tip) : Vec3::Zero();
-  const Vec3 forward = pose.cutting_direction.squaredNorm() > 0 ? pose.cutting_direction : step;
+  // Forward: the way the sharp side faces; a blade without one (no `tool.blade.edge`) along the
+  // nearest target.
+  const Vec3 forward = pose.cutting_direction.squaredNorm() > 0 ? pose.cutting_direction : near.tangent;
   const bool advancing = step.dot(forward) > 0.0 || step.dot(pose.tip - pose.back) > 0.0;
   if (p.cutting) {
     // Force on the hand against the band, over the time spent.
@@ -202,7 +206,9 @@ void TaskScorer::on_sample(double t, const BladePose& pose, const CutStepStats& 
     force_max_ = std::max(force_max_, force);
     if (force >= task_.pass.force_min && force <= task_.pass.force_max) force_in_band_time_ += dt;
     if (stats.edges_cut + stats.face_pierces > 0) stroke_cut_ = true;
-    if (near.incision >= 0) {
+    // The tip's place along the targets only where it was located in the tissue (else `where` is
+    // its world position, and no depth was measured).
+    if (near.incision >= 0 && p.has_material_depth) {
       const auto k = static_cast<std::size_t>(near.incision);
       Target& target = targets_[k];
       ++stroke_samples_[k];
@@ -304,9 +310,10 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     extra_strokes += std::max(0, s.strokes - 1);
     most_strokes = std::max(most_strokes, s.strokes);
     hesitations += s.hesitations;
-    stations += n;
-    covered += static_cast<double>(cov);
-    in_band += static_cast<double>(band);
+    // By length: an incision with a finer tolerance has more stations per millimetre.
+    stations += t.length;
+    covered += s.coverage * t.length;
+    in_band += s.depth_in_band * t.length;
     out.targets_length += t.length;
     out.incisions.push_back(s);
   }
@@ -456,7 +463,7 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     ScoreComponent c{"economy", "ratio", r, pass.economy, true, true, 0, 5, ""};
     // Full points up to halfway between 1 and the threshold, none at twice its excess.
     const double full = 0.5 * (1 + pass.economy), zero = 2 * pass.economy - 1;
-    c.points = 5 * clamp01((zero - r) / (zero - full));
+    c.points = 5 * (zero > full ? clamp01((zero - r) / (zero - full)) : (r <= full ? 1.0 : 0.0));
     c.passed = r <= pass.economy;
     if (r > full) c.why = format("The tip travelled %.1f times the target's length in the tissue.", r);
     add(c);
@@ -483,7 +490,9 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
   {
     const double f = out.cut_area > 0 ? out.collateral_area / out.cut_area : 0.0;
     ScoreComponent c{"collateral", "%", 100 * f, 100 * pass.collateral, true, true, 0, 5, ""};
-    c.points = out.protected_area > 0 ? 0.0 : 5 * clamp01(1 - f / (2 * pass.collateral));
+    // Linear to none at twice the threshold; with none allowed, all or nothing.
+    const double share = pass.collateral > 0 ? clamp01(1 - f / (2 * pass.collateral)) : (f == 0 ? 1.0 : 0.0);
+    c.points = out.protected_area > 0 ? 0.0 : 5 * share;
     c.passed = f <= pass.collateral;
     if (f > 0)
       c.why = format("%.1f %% of the cut surface (%.1f mm²) lies outside the tolerance band of every target.",
@@ -501,6 +510,13 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
                      1e6 * out.protected_area);
     add(c);
   }
+  // A session that never cut earns nothing for how it did not cut.
+  if (cutting_samples_ == 0)
+    for (ScoreComponent& c : out.components)
+      if (c.points > 0) {
+        c.points = 0;
+        c.why = "Nothing was cut.";
+      }
   bool all = true;
   for (const ScoreComponent& c : out.components) {
     out.score += c.points;

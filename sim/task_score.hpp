@@ -126,8 +126,9 @@ class TaskScorer {
   };
   struct Nearest {
     int incision = -1;
-    double distance = 0;  // [m] lateral
-    double s = 0;         // [m] along it
+    double distance = 0;          // [m] lateral
+    double s = 0;                 // [m] along it
+    Vec3 tangent = Vec3::Zero();  // its direction there (xy, unit)
   };
   [[nodiscard]] Nearest nearest(const Vec3& p) const;
   void end_stroke();

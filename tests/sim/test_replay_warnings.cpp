@@ -65,6 +65,12 @@ TEST_CASE("replay warnings: the reference session has none, and two replays writ
   options.out_dir = dir / "b";
   const ReplayResult b = replay(s, log, options);
   CHECK(a.report.dump() == b.report.dump());  // report.json byte for byte; timings are in run.json
+  const auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  CHECK(bytes(dir / "a/frames.csv") == bytes(dir / "b/frames.csv"));
+  CHECK(bytes(dir / "a/report.json") == bytes(dir / "b/report.json"));
 }
 
 TEST_CASE("replay warnings: a blade that never went into the tissue") {
