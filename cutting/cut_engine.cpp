@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "mesh/closest_point.hpp"
 #include "mesh/validate.hpp"
 
 namespace scalpel {
@@ -78,28 +79,6 @@ void CutTotals::add(const CutStepStats& s) {
 }
 
 namespace {
-
-// The point of triangle abc nearest to p, by the Voronoi regions of its corners and edges (Ericson,
-// "Real-Time Collision Detection", 2005, section 5.1.5).
-Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
 
 using Key3 = std::array<std::uint32_t, 3>;
 
@@ -1319,8 +1298,8 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
     if (std::all_of(w->begin(), w->end(), [](double wi) { return wi >= 0.0; })) return 0.0;
     double out = std::numeric_limits<double>::infinity();
     for (int i = 0; i < 4; ++i)
-      out =
-          std::min(out, (p - closest_on_triangle(p, x[(i + 1) % 4], x[(i + 2) % 4], x[(i + 3) % 4])).norm());
+      out = std::min(
+          out, (p - closest_point_on_triangle(p, x[(i + 1) % 4], x[(i + 2) % 4], x[(i + 3) % 4])).norm());
     return out;
   };
   const auto corners = [](const TetMesh& m, const std::array<std::uint32_t, 4>& v) {

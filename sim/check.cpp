@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "base/input_error.hpp"
+#include "mesh/io/xml.hpp"
 
 namespace scalpel {
 
@@ -64,29 +65,6 @@ std::string format(double x) {
   std::ostringstream s;
   s << x;
   return s.str();
-}
-
-std::string xml_escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 }  // namespace
@@ -212,18 +190,18 @@ std::string junit_xml(const CheckFile& file, const std::vector<CheckOutcome>& ou
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
     << "<testsuites name=\"scalpelsim\" tests=\"" << outcomes.size() << "\" failures=\"" << failed
     << "\" time=\"" << total << "\">\n"
-    << "  <testsuite name=\"" << xml_escape(suite) << "\" tests=\"" << outcomes.size() << "\" failures=\""
-    << failed << "\" errors=\"0\" time=\"" << total << "\">\n";
+    << "  <testsuite name=\"" << mesh_io::xml_escape(suite) << "\" tests=\"" << outcomes.size()
+    << "\" failures=\"" << failed << "\" errors=\"0\" time=\"" << total << "\">\n";
   for (const CheckOutcome& o : outcomes) {
-    x << "    <testcase classname=\"scalpelsim." << xml_escape(file.file.stem().string()) << "\" name=\""
-      << xml_escape(o.name) << "\" time=\"" << o.seconds << "\">\n";
+    x << "    <testcase classname=\"scalpelsim." << mesh_io::xml_escape(file.file.stem().string())
+      << "\" name=\"" << mesh_io::xml_escape(o.name) << "\" time=\"" << o.seconds << "\">\n";
     if (!o.failures.empty()) {
       std::string all;
       for (const std::string& f : o.failures) all += f + "\n";
-      x << "      <failure message=\"" << xml_escape(o.failures.front()) << "\" type=\"expectation\">"
-        << xml_escape(all) << "</failure>\n";
+      x << "      <failure message=\"" << mesh_io::xml_escape(o.failures.front())
+        << "\" type=\"expectation\">" << mesh_io::xml_escape(all) << "</failure>\n";
     }
-    x << "      <system-out>" << xml_escape("outputs: " + o.out_dir) << "</system-out>\n"
+    x << "      <system-out>" << mesh_io::xml_escape("outputs: " + o.out_dir) << "</system-out>\n"
       << "    </testcase>\n";
   }
   x << "  </testsuite>\n</testsuites>\n";

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "mesh/closest_point.hpp"
 #include "mesh/topology.hpp"
 
 namespace scalpel {
@@ -47,37 +48,12 @@ std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const 
   return hit;
 }
 
-namespace {
-
-// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5).
-Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-}  // namespace
-
 SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p) const {
   SurfaceHit best;
   double best_d2 = std::numeric_limits<double>::infinity();
   for (const auto& f : faces_) {
     const Vec3 &a = x[f[0]], &b = x[f[1]], &c = x[f[2]];
-    const Vec3 q = closest_on_triangle(p, a, b, c);
+    const Vec3 q = closest_point_on_triangle(p, a, b, c);
     const double d2 = (q - p).squaredNorm();
     if (d2 >= best_d2) continue;
     const Vec3 n = (b - a).cross(c - a);

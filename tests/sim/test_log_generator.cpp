@@ -36,7 +36,9 @@ Vec3 back_of(const Scenario& s, const ToolSample& x) {
 
 }  // namespace
 
-TEST_CASE("log generator: the bundled log is reproducible byte for byte") {
+// The generator steps the scenario's tissue to follow it (IncisionMotion::follow_settled_tissue):
+// the tests that make a bundled log take seconds here and minutes at -O0, so they are `slow`.
+TEST_CASE("log generator: the bundled log is reproducible byte for byte" * doctest::test_suite("slow")) {
   const Scenario s = bundled();
   REQUIRE(s.log.has_value());
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log";
@@ -74,7 +76,8 @@ IncisionMotion trembling_motion() {
   return m;
 }
 
-TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible byte for byte") {
+TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible byte for byte" *
+          doctest::test_suite("slow")) {
   const Scenario s = bundled();
   const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_tremble";
   fs::remove_all(dir);
@@ -102,7 +105,8 @@ TEST_CASE("log generator: the bundled tremble and pull-back log is reproducible 
   fs::remove_all(dir);
 }
 
-TEST_CASE("log generator: the bundled crossing log is reproducible and cuts across the first incision") {
+TEST_CASE("log generator: the bundled crossing log is reproducible and cuts across the first incision" *
+          doctest::test_suite("slow")) {
   const Scenario s =
       load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision_cross.yaml");
   CHECK(s.simulation.cut_recursion_depth == 8);
@@ -152,7 +156,7 @@ TEST_CASE("log generator: the bundled crossing log is reproducible and cuts acro
   fs::remove_all(dir);
 }
 
-TEST_CASE("log generator: the bundled log is valid and performs the task") {
+TEST_CASE("log generator: the bundled log is valid and performs the task" * doctest::test_suite("slow")) {
   const Scenario s = bundled();
   PoseLogReader reader(s.log->string());
   CHECK(reader.metadata("generator") == "scalpelsim make-log");

@@ -52,7 +52,8 @@ Scenario bundled() {
 
 }  // namespace
 
-TEST_CASE("replay warnings: the reference session has none, and two replays write the same report") {
+TEST_CASE("replay warnings: the reference session has none, and two replays write the same report" *
+          doctest::test_suite("slow")) {
   const Scenario s = bundled();
   const fs::path dir = fresh_dir("reference");
   const fs::path log = write_log(dir, generate_task_log(s), task_log_metadata(s));
@@ -73,7 +74,7 @@ TEST_CASE("replay warnings: the reference session has none, and two replays writ
   CHECK(bytes(dir / "a/report.json") == bytes(dir / "b/report.json"));
 }
 
-TEST_CASE("replay warnings: a blade that never went into the tissue") {
+TEST_CASE("replay warnings: a blade that never went into the tissue" * doctest::test_suite("slow")) {
   const Scenario s = bundled();
   std::vector<ToolSample> samples = generate_task_log(s);
   for (ToolSample& x : samples) x.position.z() += 0.02;
@@ -87,7 +88,7 @@ TEST_CASE("replay warnings: a blade that never went into the tissue") {
   CHECK(r.report["task"]["score"].get<double>() < 50.0);
 }
 
-TEST_CASE("replay warnings: a log recorded on another scenario") {
+TEST_CASE("replay warnings: a log recorded on another scenario" * doctest::test_suite("slow")) {
   const Scenario s = bundled();
   PoseLogMetadata meta = task_log_metadata(s);
   for (auto& [key, value] : meta)
@@ -100,7 +101,8 @@ TEST_CASE("replay warnings: a log recorded on another scenario") {
   CHECK(r.report["warnings"][0]["message"].get<std::string>().find("liver_resection") != std::string::npos);
 }
 
-TEST_CASE("replay warnings: a mesh written in millimetres, and a task outside it") {
+TEST_CASE("replay warnings: a mesh written in millimetres, and a task outside it" *
+          doctest::test_suite("slow")) {
   // The bundled patch's box, 40 x 30 x 8 "metres": millimetres read as metres.
   BoxSpec spec;
   spec.min = Vec3(-20, -15, -8);
@@ -134,7 +136,7 @@ TEST_CASE("replay warnings: a mesh written in millimetres, and a task outside it
       CHECK(w["message"].get<std::string>().find("millimetres") != std::string::npos);
 }
 
-TEST_CASE("replay: simulation.duration ends the session there") {
+TEST_CASE("replay: simulation.duration ends the session there" * doctest::test_suite("slow")) {
   const Scenario full = bundled();
   Scenario s = full;
   s.simulation.duration = 1.0;
@@ -147,7 +149,8 @@ TEST_CASE("replay: simulation.duration ends the session there") {
   CHECK(r.report["task"]["incisions"][0]["coverage"].get<double>() < 0.2);
 }
 
-TEST_CASE("replay warnings: soft tissue dragged far by a blade with a high resistance") {
+TEST_CASE("replay warnings: soft tissue dragged far by a blade with a high resistance" *
+          doctest::test_suite("slow")) {
   // 3 kPa tissue against 3000 N/m of blade edge: the blade drags it a quarter of a metre.
   Scenario s = bundled();
   for (RegionMaterial& m : s.materials) m.material.young = 3e3;
@@ -161,7 +164,7 @@ TEST_CASE("replay warnings: soft tissue dragged far by a blade with a high resis
   CHECK(has(codes(r), "tissue_displaced"));
 }
 
-TEST_CASE("replay: a ParaView time series of the mesh every N frames") {
+TEST_CASE("replay: a ParaView time series of the mesh every N frames" * doctest::test_suite("slow")) {
   Scenario s = bundled();
   s.simulation.duration = 0.5;  // 30 frames
   const fs::path dir = fresh_dir("series");

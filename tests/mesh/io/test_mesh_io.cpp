@@ -328,8 +328,11 @@ TEST_CASE("mesh_io vtu round trip keeps counts, positions and regions") {
   const auto tets = m.tets(), back_tets = back.tets();
   bool same_positions = true, same_regions = true, same_vertices = true;
   const auto nodes = m.nodes();
+  // Exact (shortest round trip): the points are the current positions, the rest_position array the
+  // rest positions.
   for (std::size_t i = 0; i < nodes.size(); ++i)
-    same_positions &= back.rest_positions()[i] == m.position(nodes[i]);  // exact: shortest round trip
+    same_positions &=
+        back.positions()[i] == m.position(nodes[i]) && back.rest_positions()[i] == m.rest(nodes[i]);
   for (std::size_t i = 0; i < tets.size(); ++i) {
     same_regions &= back.region(back_tets[i]) == m.region(tets[i]);
     for (int k = 0; k < 4; ++k)
@@ -339,6 +342,8 @@ TEST_CASE("mesh_io vtu round trip keeps counts, positions and regions") {
   CHECK(same_regions);
   CHECK(same_vertices);  // slot 0 was the removed tet, not a node: node numbering is unchanged
   CHECK(info.reoriented_tets == 0);
+  CHECK(info.has_rest_positions);
+  CHECK(info.unused_points == 0);
   REQUIRE(info.regions.size() == 2);
   CHECK(info.regions[1].id == 1);
   check_valid(back);
