@@ -465,7 +465,8 @@ TEST_CASE("a piece a cut severs from every fixed node is held where it lies, not
 // the tissue's motion (CutEngine::follow_tissue), the lips stayed joined at the skin 1.4 and 0.5
 // mm before the end of the line; now only within the last millimetre, where the tip's way out ends
 // the cut surface (0.5 mm), and at the cut's start.
-TEST_CASE("the lips part at the skin up to where the blade lifted out of tissue it had dragged along") {
+TEST_CASE("the lips part at the skin up to where the blade lifted out of tissue it had dragged along" *
+          doctest::test_suite("slow")) {
   const std::filesystem::path root(SCALPEL_SOURCE_DIR);
   const Scenario sc = load_scenario(root / "config/scenarios/skin_incision.yaml");
   REQUIRE(sc.task);
