@@ -137,12 +137,10 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
         std::cout << "    " << part["name"].get<std::string>() << ": " << part["why"].get<std::string>()
                   << "\n";
   }
-  for (const auto& w : r.report["warnings"])
-    std::cerr << "warning: " << w["message"].get<std::string>() << " (" << w["code"].get<std::string>()
-              << ")\n";
-  for (const auto& w : r.run["warnings"])
-    std::cerr << "warning: " << w["message"].get<std::string>() << " (" << w["code"].get<std::string>()
-              << ")\n";
+  for (const auto* warnings : {&r.report["warnings"], &r.run["warnings"]})
+    for (const auto& w : *warnings)
+      std::cerr << "warning: " << w["message"].get<std::string>() << " (" << w["code"].get<std::string>()
+                << ")\n";
   std::cout << "  invariants " << (r.invariants_ok ? "hold" : "BROKEN") << "\n"
             << "  wrote " << (fs::path(out) / "report.json").string() << ", "
             << (fs::path(out) / "run.json").string() << ", " << (fs::path(out) / "frames.csv").string()
