@@ -644,7 +644,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
       for (const std::uint32_t x : real[0])
         for (const std::uint32_t y : real[1])
           for (const std::uint32_t z : real[2]) {
-            if (!seals_.count(sorted_key(x, y, z))) continue;
+            if (!has_seal(sorted_key(x, y, z))) continue;
             const std::uint32_t mine = at == 0 ? x : at == 1 ? y : z;
             for (std::uint32_t k = 0; k < n.copies.size(); ++k)
               if (n.copies[k].index == mine) return k;
@@ -1613,8 +1613,7 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
       n.crossing = false;
     }
     // Seals whose unit has been promoted now are lifted.
-    for (auto it = seals_.begin(); it != seals_.end();)
-      it = coarse_tets_around(it->second).empty() ? seals_.erase(it) : std::next(it);
+    std::erase_if(seals_, [&](const auto& s) { return coarse_tets_around(s.second).empty(); });
     ++stats.recursions;
     if (!rest.empty()) ++stats.stroke_recursions;
     stats.promoted_tets += part.size();
@@ -1645,9 +1644,9 @@ void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
     return false;
   };
   auto seal_edges = [&](std::uint32_t a, std::uint32_t b, std::uint32_t d, const Key3& outer) {
-    seals_[edge_key(a, b)] = outer;
-    seals_[edge_key(b, d)] = outer;
-    seals_[edge_key(a, d)] = outer;
+    add_seal(edge_key(a, b), outer);
+    add_seal(edge_key(b, d), outer);
+    add_seal(edge_key(a, d), outer);
   };
   for (int f = 0; f < 4; ++f) {
     const auto fv = face_vertex_indices(coarse_, t, f);
@@ -1655,28 +1654,29 @@ void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
     const bool cut = face_node(mid_nodes_, face) != kInvalidIndex ||
                      face_node(entry_nodes_, face) != kInvalidIndex || face_has_edge_node(face);
     if (!cut || !held_by_rest(face)) continue;
-    seals_[face] = face;
+    add_seal(face, face);
     seal_edges(face[0], face[1], face[2], face);
     for (std::size_t s = 0; s < c.subs.size(); ++s)
       for (int j = 0; j < 4; ++j) {
         const auto g = face_without(c.subs[s], j);
         if (!lies_on(g[0], face) || !lies_on(g[1], face) || !lies_on(g[2], face)) continue;
         const auto r = face_without(c.real[s], j);
-        seals_[sorted_key(r[0].index, r[1].index, r[2].index)] = face;
+        add_seal(sorted_key(r[0].index, r[1].index, r[2].index), face);
         seal_edges(r[0].index, r[1].index, r[2].index, face);
       }
   }
   for (const auto& ev : kEdgeVertices) {
     const Key3 edge = edge_key(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]);
     if (edge_node(edge[0], edge[1]) == kInvalidIndex || !held_by_rest(edge)) continue;
-    seals_[edge] = edge;
+    add_seal(edge, edge);
     for (std::size_t s = 0; s < c.subs.size(); ++s)
       for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j)
           if (lies_on(c.subs[s][static_cast<size_t>(i)], edge) &&
               lies_on(c.subs[s][static_cast<size_t>(j)], edge))
-            seals_[edge_key(c.real[s][static_cast<size_t>(i)].index,
-                            c.real[s][static_cast<size_t>(j)].index)] = edge;
+            add_seal(
+                edge_key(c.real[s][static_cast<size_t>(i)].index, c.real[s][static_cast<size_t>(j)].index),
+                edge);
   }
 }
 
@@ -1704,9 +1704,19 @@ bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const 
          near_surface(x[e.b], mb, e.point, normal, size, along, distance);
 }
 
+void CutEngine::add_seal(const Key3& key, const Key3& outer) {
+  seals_.emplace(key, outer);
+}
+
+bool CutEngine::has_seal(const Key3& key) const {
+  const auto it = seals_.lower_bound({key, Key3{}});
+  return it != seals_.end() && it->first == key;
+}
+
 bool CutEngine::sealed(const Key3& key) const {
-  const auto it = seals_.find(key);
-  return it != seals_.end() && !coarse_tets_around(it->second).empty();
+  for (auto it = seals_.lower_bound({key, Key3{}}); it != seals_.end() && it->first == key; ++it)
+    if (!coarse_tets_around(it->second).empty()) return true;
+  return false;
 }
 
 std::string CutEngine::check_faithful(double tolerance) const {

@@ -341,8 +341,11 @@ class CutEngine {
   std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed
   // Sealed faces and edges (sorted node slots; an edge has kInvalidIndex third), each with the
   // face or edge of a not yet promoted unit whose subdivision holds it: the seal lasts while a unit
-  // holds that face or edge whole.
-  std::map<std::array<std::uint32_t, 3>, std::array<std::uint32_t, 3>> seals_;
+  // holds that face or edge whole. One key can be sealed by several (an edge of two sealed faces);
+  // it stays sealed while any of them holds.
+  std::set<std::pair<std::array<std::uint32_t, 3>, std::array<std::uint32_t, 3>>> seals_;
+  void add_seal(const std::array<std::uint32_t, 3>& key, const std::array<std::uint32_t, 3>& outer);
+  bool has_seal(const std::array<std::uint32_t, 3>& key) const;
   // Promoted cut nodes, now corners of units, by node slot of each copy: the cut node.
   std::unordered_map<std::uint32_t, std::uint32_t> former_;
   CutChanges changes_;

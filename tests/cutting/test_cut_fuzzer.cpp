@@ -4,7 +4,8 @@
 // gmsh meshes. After every step: invariants 1-5 (docs/invariants.md). After every stroke whose
 // swept surface is a union of planes through the whole mesh: the pieces and volumes of the original
 // mesh clipped by those planes, exactly; after a stroke that cannot free a piece: one piece. A
-// failure is minimised to a short sample list and printed so that it can become a regression test.
+// failure is minimised to a short sample list and printed in the form of tests/data/fuzz/, where
+// each file, with a comment on what it broke and why, becomes a regression test.
 //
 // CI runs a short budget. The long run, e.g. ten thousand trajectories of each kind:
 //   SCALPEL_FUZZ_BUDGET=10000 ./build/release/tests/scalpel_tests -tc='fuzz*'
@@ -16,9 +17,12 @@
 #include <cstdint>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -45,11 +49,18 @@ std::size_t env_size(const char* name, std::size_t fallback) {
 Scene box(int cells) {
   Scene s;
   s.name = "box " + std::to_string(cells) + "^3";
+  s.tag = "box " + std::to_string(cells);
   s.mesh = make_box({.cells = {cells, cells, cells}});
   s.volume = 1.0;
   s.lo = Vec3::Zero();
   s.hi = Vec3::Ones();
   s.h = 1.0 / cells;
+  return s;
+}
+
+Scene gmsh_box() {
+  Scene s = testing::gmsh_scene("gmsh box with inclusion", SCALPEL_TEST_MSH22);
+  s.tag = "gmsh";
   return s;
 }
 
@@ -410,9 +421,12 @@ Trajectory minimise(const Scene& s, Trajectory t, std::size_t failed_at) {
   return t;
 }
 
-std::string listing(const Trajectory& t) {
+// A minimised failure as a regression file (tests/data/fuzz/): a line `mesh box N` or `mesh gmsh`,
+// then one line per sample: `place` or `step`, the back, the tip and the cutting direction.
+std::string listing(const Scene& s, const Trajectory& t) {
   std::ostringstream out;
   out.precision(17);
+  out << "mesh " << s.tag << '\n';
   for (const Sample& x : t.samples)
     out << (x.place ? "place " : "step  ") << x.pose.back.transpose() << "  " << x.pose.tip.transpose()
         << "  " << x.pose.cutting_direction.transpose() << '\n';
@@ -440,7 +454,7 @@ void fuzz(const Scene& s, Kind kind, std::size_t fallback_budget, std::uint64_t 
       what << "sample " << *o.failed_at << " of " << t.samples.size() << ": " << o.why << "\nminimised to "
            << small.samples.size() << " samples (fails at " << again.failed_at.value_or(0) << ": "
            << again.why << "):\n"
-           << listing(small);
+           << listing(s, small);
     } else {
       what << "after its " << t.samples.size() << " samples: " << o.why;
     }
@@ -450,7 +464,62 @@ void fuzz(const Scene& s, Kind kind, std::size_t fallback_budget, std::uint64_t 
   CHECK_MESSAGE(failures == 0, shown.str());
 }
 
+// Reads a regression file written by listing(); throws naming the file and line.
+std::pair<Scene, Trajectory> read_listing(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open");
+  std::optional<Scene> scene;
+  Trajectory t;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const std::string where = path.string() + ":" + std::to_string(number) + ": ";
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream words(line);
+    std::string word;
+    words >> word;
+    if (word == "mesh") {
+      std::string kind;
+      int cells = 0;
+      words >> kind;
+      if (kind == "gmsh") {
+        scene = gmsh_box();
+      } else if (kind == "box" && (words >> cells) && cells > 0) {
+        scene = box(cells);
+      } else {
+        throw std::runtime_error(where + "mesh: expected `box N` or `gmsh`");
+      }
+      continue;
+    }
+    Sample x;
+    x.place = word == "place";
+    BladePose& p = x.pose;
+    if ((word != "place" && word != "step") || !scene ||
+        !(words >> p.back.x() >> p.back.y() >> p.back.z() >> p.tip.x() >> p.tip.y() >> p.tip.z() >>
+          p.cutting_direction.x() >> p.cutting_direction.y() >> p.cutting_direction.z()))
+      throw std::runtime_error(where + "expected `place` or `step` and nine numbers after a `mesh` line");
+    t.samples.push_back(x);
+  }
+  if (!scene || t.samples.empty()) throw std::runtime_error(path.string() + ": no mesh or no samples");
+  return {std::move(*scene), std::move(t)};
+}
+
 }  // namespace
+
+// Every failure the fuzzer has found, minimised, replays with invariants 1-5 after every step
+// (each file says what it broke and why).
+TEST_CASE("fuzz: the minimised failures found so far stay fixed") {
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(SCALPEL_TEST_DATA_DIR "/fuzz"))
+    if (e.path().extension() == ".txt") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  REQUIRE(!files.empty());
+  for (const auto& f : files) {
+    CAPTURE(f.filename().string());
+    const auto [scene, trajectory] = read_listing(f);
+    const Outcome o = run(scene, trajectory);
+    CHECK_MESSAGE(!o.failed_at, "sample " << o.failed_at.value_or(0) << ": " << o.why);
+  }
+}
 
 TEST_CASE("fuzz: tumbling blades through a 3x3x3 box" * doctest::test_suite("slow")) {
   fuzz(box(3), Kind::Tumble, 2, 0xf022);
@@ -474,5 +543,5 @@ TEST_CASE("fuzz: through-cuts crossing at 10-40 degrees, box" * doctest::test_su
   fuzz(box(3), Kind::ShallowCrossing, 6, 0xf028);
 }
 TEST_CASE("fuzz: through-cuts crossing at random angles, gmsh" * doctest::test_suite("slow")) {
-  fuzz(testing::gmsh_scene("gmsh box with inclusion", SCALPEL_TEST_MSH22), Kind::ThroughCrossing, 4, 0xf027);
+  fuzz(gmsh_box(), Kind::ThroughCrossing, 4, 0xf027);
 }

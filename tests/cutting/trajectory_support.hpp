@@ -40,6 +40,7 @@ struct Rng {
 // A mesh to cut, with its bounding box and a typical edge length.
 struct Scene {
   std::string name;
+  std::string tag;  // how a regression file names the mesh (test_cut_fuzzer.cpp)
   TetMesh mesh;
   double volume = 0;
   Vec3 lo, hi;
