@@ -9,7 +9,8 @@
 //
 // CI runs a short budget. The long run, e.g. ten thousand trajectories of each kind:
 //   SCALPEL_FUZZ_BUDGET=10000 ./build/release/tests/scalpel_tests -tc='fuzz*'
-// SCALPEL_FUZZ_SEED changes the seeds.
+// SCALPEL_FUZZ_SEED changes the seeds; SCALPEL_FUZZ_FIRST=K starts at trajectory K (with
+// SCALPEL_FUZZ_BUDGET=1: the one a failure names).
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -61,6 +62,12 @@ Scene box(int cells) {
 Scene gmsh_box() {
   Scene s = testing::gmsh_scene("gmsh box with inclusion", SCALPEL_TEST_MSH22);
   s.tag = "gmsh";
+  return s;
+}
+
+Scene gmsh_sphere() {
+  Scene s = testing::gmsh_scene("gmsh sphere", SCALPEL_TEST_SPHERE);
+  s.tag = "sphere";
   return s;
 }
 
@@ -169,7 +176,17 @@ std::vector<double> clipped_volumes(const TetMesh& original, const std::vector<P
 
 // ---- trajectory generators -----------------------------------------------------------------
 
-enum class Kind { Tumble, GridCrossing, ThroughCrossing, ShallowCrossing, PartialCrossing, Tremor, Count };
+enum class Kind {
+  Tumble,
+  GridCrossing,
+  ThroughCrossing,
+  ShallowCrossing,
+  PartialCrossing,
+  Tremor,
+  TipAlongBottom,
+  TremorAcross,
+  Count
+};
 
 std::string kind_name(Kind k) {
   switch (k) {
@@ -178,13 +195,17 @@ std::string kind_name(Kind k) {
     case Kind::GridCrossing:
       return "through-cuts crossing along grid planes";
     case Kind::ThroughCrossing:
-      return "through-cuts crossing at random angles";
+      return "through-cuts crossing at random angles (over 10.5 degrees)";
     case Kind::ShallowCrossing:
       return "through-cuts crossing at 10-40 degrees";
     case Kind::PartialCrossing:
       return "partial-depth incisions crossing";
     case Kind::Tremor:
       return "through-cut with tremor";
+    case Kind::TipAlongBottom:
+      return "a tip running along the bottom face";
+    case Kind::TremorAcross:
+      return "through-cut with tremor across its plane";
     default:
       return "?";
   }
@@ -211,7 +232,7 @@ void through_stroke(const Scene& s, const Plane& p, const Vec3& along, double st
 void partial_stroke(const Scene& s, const Plane& p, double depth, double step, std::vector<Sample>& out) {
   const Vec3 centre = 0.5 * (s.lo + s.hi);
   const double reach = (s.hi - s.lo).norm();
-  Vec3 down = Vec3(0, 0, -1) - p.n.z() * p.n;
+  Vec3 down = Vec3(0, 0, -1) + p.n.z() * p.n;  // straight down, projected into the plane
   down.normalize();
   const Vec3 move = p.n.cross(down).normalized();
   Vec3 on = centre - (p.n.dot(centre) - p.d) * p.n;
@@ -262,11 +283,18 @@ Trajectory make(Kind kind, const Scene& s, Rng& rng) {
       t.expect.tolerance = 4 * CutOptions{}.min_edge_param * s.h;
       break;
     }
+    // Planes at least CutOptions::along_cut_angle_deg apart: closer, a second stroke meeting the
+    // first is taken for a blade retracing it (docs/state_machine.md, "Retracing an opened cut"),
+    // which joins the wedge between them to the first cut's pieces by design.
     case Kind::ThroughCrossing: {
+      const double resolved = std::cos((CutOptions{}.along_cut_angle_deg + 0.5) * M_PI / 180);
       for (int k = 0; k < 2; ++k) {
-        Vec3 n = rng.unit();
-        n.z() *= 0.4;  // steep planes: the blade enters from the side as well as from above
-        n.normalize();
+        Vec3 n;
+        do {
+          n = rng.unit();
+          n.z() *= 0.4;  // steep planes: the blade enters from the side as well as from above
+          n.normalize();
+        } while (k == 1 && std::abs(n.dot(t.expect.planes[0].n)) > resolved);
         const Plane p{
             n, n.dot(centre + Vec3(rng.range(-0.25, 0.25) * size.x(), rng.range(-0.25, 0.25) * size.y(), 0))};
         through_stroke(s, p, rng.unit(), step, t.samples);
@@ -301,17 +329,39 @@ Trajectory make(Kind kind, const Scene& s, Rng& rng) {
       t.expect.one_piece = true;
       break;
     }
-    case Kind::Tremor: {  // 8-12 Hz tremor of about one edge length at 1 kHz, in the plane only
+    case Kind::TipAlongBottom: {  // a cut from above whose tip runs in the bottom face: it severs
+      Vec3 n = rng.unit();
+      n.z() *= 0.4;
+      n.normalize();
+      const Plane p{
+          n, n.dot(centre + Vec3(rng.range(-0.25, 0.25) * size.x(), rng.range(-0.25, 0.25) * size.y(), 0))};
+      partial_stroke(s, p, size.z(), step, t.samples);
+      for (Sample& x : t.samples) x.pose.tip.z() = s.lo.z();  // exactly, not within rounding
+      t.expect.planes = {p};
+      break;
+    }
+    case Kind::Tremor:          // 8-12 Hz tremor of about one edge length at 1 kHz, in the plane only
+    case Kind::TremorAcross: {  // the same, and across the plane too: a wavy sheet, still one cut
       Vec3 n = rng.unit();
       n.z() *= 0.3;
       n.normalize();
       const Plane p{n, n.dot(centre)};
       const Vec3 u = n.cross(Vec3(0, 0, 1)).normalized(), w = n.cross(u);
       const double f1 = rng.range(8, 12) * 2 * M_PI / 1000, f2 = rng.range(8, 12) * 2 * M_PI / 1000;
+      const double f3 = rng.range(8, 12) * 2 * M_PI / 1000;
       const double amp = rng.range(0.3, 1.0) * s.h;
-      through_stroke(s, p, w, 0.02 * s.h, t.samples,
-                     [&](int k) { return Vec3(amp * (std::sin(f1 * k) * u + std::cos(f2 * k) * w)); });
+      const double across = kind == Kind::TremorAcross ? rng.range(0.1, 0.3) * s.h : 0.0;
+      through_stroke(s, p, w, 0.02 * s.h, t.samples, [&](int k) {
+        return Vec3(amp * (std::sin(f1 * k) * u + std::cos(f2 * k) * w) + across * std::sin(f3 * k) * n);
+      });
       t.expect.planes = {p};
+      if (across > 0) {
+        // The sheet stays within `across` of the plane: each piece within that slab's volume, at
+        // most `across` times a section's area (under half the bounding box's surface).
+        const Vec3 e = s.hi - s.lo;
+        const double half_surface = e.x() * e.y() + e.y() * e.z() + e.z() * e.x();
+        t.expect.tolerance = across * half_surface / s.volume;
+      }
       break;
     }
     default:
@@ -421,8 +471,8 @@ Trajectory minimise(const Scene& s, Trajectory t, std::size_t failed_at) {
   return t;
 }
 
-// A minimised failure as a regression file (tests/data/fuzz/): a line `mesh box N` or `mesh gmsh`,
-// then one line per sample: `place` or `step`, the back, the tip and the cutting direction.
+// A minimised failure as a regression file (tests/data/fuzz/): a line `mesh box N`, `mesh gmsh` or `mesh
+// sphere`, then one line per sample: `place` or `step`, the back, the tip and the cutting direction.
 std::string listing(const Scene& s, const Trajectory& t) {
   std::ostringstream out;
   out.precision(17);
@@ -439,7 +489,8 @@ void fuzz(const Scene& s, Kind kind, std::size_t fallback_budget, std::uint64_t 
   std::size_t failures = 0;
   double worst = 0;
   std::ostringstream shown;  // the first three failures
-  for (std::size_t i = 0; i < budget; ++i) {
+  const std::size_t first = env_size("SCALPEL_FUZZ_FIRST", 0);
+  for (std::size_t i = first; i < first + budget; ++i) {
     Rng rng{seed ^ (static_cast<std::uint64_t>(kind) << 40) ^ i};
     const Trajectory t = make(kind, s, rng);
     const Outcome o = run(s, t);
@@ -483,10 +534,12 @@ std::pair<Scene, Trajectory> read_listing(const std::filesystem::path& path) {
       words >> kind;
       if (kind == "gmsh") {
         scene = gmsh_box();
+      } else if (kind == "sphere") {
+        scene = gmsh_sphere();
       } else if (kind == "box" && (words >> cells) && cells > 0) {
         scene = box(cells);
       } else {
-        throw std::runtime_error(where + "mesh: expected `box N` or `gmsh`");
+        throw std::runtime_error(where + "mesh: expected `box N`, `gmsh` or `sphere`");
       }
       continue;
     }
@@ -544,4 +597,26 @@ TEST_CASE("fuzz: through-cuts crossing at 10-40 degrees, box" * doctest::test_su
 }
 TEST_CASE("fuzz: through-cuts crossing at random angles, gmsh" * doctest::test_suite("slow")) {
   fuzz(gmsh_box(), Kind::ThroughCrossing, 4, 0xf027);
+}
+// Physiological tremor through a curved gmsh mesh (the blade's plane meets its tetrahedra at every
+// angle), and crossings there.
+TEST_CASE("fuzz: through-cut with tremor, gmsh sphere" * doctest::test_suite("slow")) {
+  fuzz(gmsh_sphere(), Kind::Tremor, 4, 0xf029);
+}
+// Known to fail (issue: cuts valid on any trajectory, class 5): tremor across the blade's plane
+// while the in-plane tremor reverses the blade leaves holes in the section (2-edge and 5-edge end
+// states in its middle, tetrahedra the plane crosses left uncut), so the mesh is not severed: 10 of
+// 30 trajectories on this box, 19 of 30 on the gmsh sphere; none without the in-plane tremor.
+// Marked to fail: it fails the suite once the cause is mended, to be turned into a plain test.
+TEST_CASE("fuzz: through-cut with tremor across its plane, box" * doctest::should_fail()) {
+  fuzz(box(3), Kind::TremorAcross, 4, 0xf02e);
+}
+TEST_CASE("fuzz: through-cuts crossing at random angles, gmsh sphere" * doctest::test_suite("slow")) {
+  fuzz(gmsh_sphere(), Kind::ThroughCrossing, 4, 0xf02a);
+}
+TEST_CASE("fuzz: a tip running along the bottom face severs, box") {
+  fuzz(box(3), Kind::TipAlongBottom, 4, 0xf02b);
+}
+TEST_CASE("fuzz: a tip running along the bottom face severs, gmsh" * doctest::test_suite("slow")) {
+  fuzz(gmsh_box(), Kind::TipAlongBottom, 4, 0xf02c);
 }
