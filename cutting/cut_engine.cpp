@@ -195,6 +195,16 @@ void split_edge(std::vector<std::array<std::uint64_t, 4>>& subs, std::uint64_t p
   }
 }
 
+// Barycentric weights of p in tetrahedron x by volumes: w_i is the volume with p in place of
+// corner i over the whole; none for a tetrahedron of no positive volume.
+std::optional<std::array<double, 4>> volume_weights(const Vec3& p, const std::array<Vec3, 4>& x) {
+  const double whole = signed_volume(x[0], x[1], x[2], x[3]);
+  if (!(whole > 0.0)) return std::nullopt;
+  return std::array<double, 4>{
+      signed_volume(p, x[1], x[2], x[3]) / whole, signed_volume(x[0], p, x[2], x[3]) / whole,
+      signed_volume(x[0], x[1], p, x[3]) / whole, signed_volume(x[0], x[1], x[2], p) / whole};
+}
+
 }  // namespace
 
 CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
@@ -866,6 +876,27 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 // blade within one tissue step. Only its part against the sharp edge counts (the cutting direction,
 // or the blade's last motion across itself): tissue pressed against the flat of the blade, or
 // sliding along it, is pushed, not cut (Eq. 1).
+template <class F>
+bool CutEngine::for_units_at(const Vec3& p, F&& f) const {
+  constexpr double kSlack = 1e-9;  // a point on a shared face belongs to either side
+  const auto& x = coarse_.positions();
+  bool done = false;
+  std::vector<std::int32_t> stack;
+  sweep_->tree().query(
+      [&](const Aabb& box) {
+        return !done && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
+      },
+      [&](std::uint32_t unit) {
+        if (done || !coarse_.tet_slot_alive(unit)) return;
+        const auto& v = coarse_.tet_vertex_indices(unit);
+        const auto w = volume_weights(p, {x[v[0]], x[v[1]], x[v[2]], x[v[3]]});
+        if (w && std::all_of(w->begin(), w->end(), [](double wi) { return wi >= -kSlack; }))
+          done = f(unit, *w);
+      },
+      stack);
+  return done;
+}
+
 CutStepStats CutEngine::follow_tissue() {
   Vec3 moved = Vec3::Zero();
   int inside = 0;
@@ -873,31 +904,13 @@ CutStepStats CutEngine::follow_tissue() {
     const auto& before = coarse_.positions();
     const auto& after = mesh_.positions();
     constexpr int kPoints = 16;
-    std::vector<std::int32_t> stack;
     for (int k = 0; k <= kPoints; ++k) {
       const Vec3 p = blade_.back + (blade_.tip - blade_.back) * (static_cast<double>(k) / kPoints);
-      bool found = false;
-      sweep_->tree().query(
-          [&](const Aabb& box) {
-            return !found && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
-          },
-          [&](std::uint32_t unit) {
-            if (found || !coarse_.tet_slot_alive(unit)) return;
-            const auto& v = coarse_.tet_vertex_indices(unit);
-            const std::array<Vec3, 4> x{before[v[0]], before[v[1]], before[v[2]], before[v[3]]};
-            const double whole = signed_volume(x[0], x[1], x[2], x[3]);
-            if (!(whole > 0.0)) return;
-            std::array<double, 4> w{};
-            for (std::size_t i = 0; i < 4; ++i) {
-              std::array<Vec3, 4> y = x;
-              y[i] = p;
-              w[i] = signed_volume(y[0], y[1], y[2], y[3]) / whole;
-              if (w[i] < 0.0) return;
-            }
-            for (std::size_t i = 0; i < 4; ++i) moved += w[i] * (after[v[i]] - before[v[i]]);
-            found = true;
-          },
-          stack);
+      const bool found = for_units_at(p, [&](std::uint32_t unit, const std::array<double, 4>& w) {
+        const auto& v = coarse_.tet_vertex_indices(unit);
+        for (std::size_t i = 0; i < 4; ++i) moved += w[i] * (after[v[i]] - before[v[i]]);
+        return true;
+      });
       inside += found ? 1 : 0;
     }
   }
@@ -1279,21 +1292,9 @@ std::vector<Vec3> CutEngine::cut_points() const {
 }
 
 std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const {
-  // Barycentric weights by volumes: w_i is the volume with p in place of corner i over the whole.
-  const auto weights = [&p](const std::array<Vec3, 4>& x) -> std::optional<std::array<double, 4>> {
-    const double whole = signed_volume(x[0], x[1], x[2], x[3]);
-    if (!(whole > 0.0)) return std::nullopt;
-    return std::array<double, 4>{
-        signed_volume(p, x[1], x[2], x[3]) / whole, signed_volume(x[0], p, x[2], x[3]) / whole,
-        signed_volume(x[0], x[1], p, x[3]) / whole, signed_volume(x[0], x[1], x[2], p) / whole};
-  };
-  const auto inside = [](const std::optional<std::array<double, 4>>& w) {
-    constexpr double kSlack = 1e-9;  // a point on a shared face belongs to either side
-    return w && std::all_of(w->begin(), w->end(), [](double wi) { return wi >= -kSlack; });
-  };
   // How far p lies from a tetrahedron (0 inside).
-  const auto outside = [&p, &weights](const std::array<Vec3, 4>& x) {
-    const std::optional<std::array<double, 4>> w = weights(x);
+  const auto outside = [&p](const std::array<Vec3, 4>& x) {
+    const std::optional<std::array<double, 4>> w = volume_weights(p, x);
     if (!w) return std::numeric_limits<double>::infinity();
     if (std::all_of(w->begin(), w->end(), [](double wi) { return wi >= 0.0; })) return 0.0;
     double out = std::numeric_limits<double>::infinity();
@@ -1309,26 +1310,19 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   // The live tetrahedron at p: the unit whose corners enclose it, or the sub-tetrahedron of a cut
   // unit that does, within the margin (none in an opened crack).
   TetId at;
-  std::vector<std::int32_t> stack;
-  sweep_->tree().query(
-      [&](const Aabb& box) {
-        return at.is_null() && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
-      },
-      [&](std::uint32_t unit) {
-        if (!at.is_null() || !coarse_.tet_slot_alive(unit)) return;
-        if (!inside(weights(corners(coarse_, coarse_.tet_vertex_indices(unit))))) return;
-        const auto it = cut_tets_.find(unit);
-        if (it == cut_tets_.end()) {
-          at = mesh_.tet_handle(unit_live_[unit]);
-          return;
-        }
-        for (const TetId t : it->second.live)
-          if (mesh_.alive(t) && outside(corners(mesh_, mesh_.tet_vertex_indices(t.index))) <= margin) {
-            at = t;
-            return;
-          }
-      },
-      stack);
+  for_units_at(p, [&](std::uint32_t unit, const std::array<double, 4>&) {
+    const auto it = cut_tets_.find(unit);
+    if (it == cut_tets_.end()) {
+      at = mesh_.tet_handle(unit_live_[unit]);
+      return true;
+    }
+    for (const TetId t : it->second.live)
+      if (mesh_.alive(t) && outside(corners(mesh_, mesh_.tet_vertex_indices(t.index))) <= margin) {
+        at = t;
+        return true;
+      }
+    return false;
+  });
   if (at.is_null()) return std::nullopt;
   // Weights on the corners of the tetrahedron of the original mesh it descends from, at their
   // current positions; where p lies outside them (that tetrahedron is cut and deformed) the
@@ -1337,7 +1331,7 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   out.original = mesh_.parent(at);
   const auto& v = original_[out.original];
   std::array<double, 4> w =
-      weights(corners(mesh_, v)).value_or(std::array<double, 4>{0.25, 0.25, 0.25, 0.25});
+      volume_weights(p, corners(mesh_, v)).value_or(std::array<double, 4>{0.25, 0.25, 0.25, 0.25});
   double sum = 0;
   for (double& wi : w) sum += (wi = std::max(wi, 0.0));
   for (int i = 0; i < 4; ++i) {

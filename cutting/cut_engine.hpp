@@ -241,6 +241,11 @@ class CutEngine {
   // Sweeps the blade from its last pose to `pose` and applies every event; `tool_moved`: a tool
   // sample (false: the tissue moved under the blade).
   CutStepStats sweep_to(const BladePose& pose, bool tool_moved);
+  // Calls f(unit slot, p's barycentric weights in it) for the units whose corners enclose p
+  // (positions as of the last refit(); a point on a shared face is in either), until f returns
+  // true; returns whether it did.
+  template <class F>
+  bool for_units_at(const Vec3& p, F&& f) const;
   std::uint32_t edge_node(std::uint32_t a, std::uint32_t b) const;
   std::uint32_t face_node(const std::map<std::array<std::uint32_t, 3>, std::uint32_t>& map,
                           const std::array<std::uint32_t, 3>& key) const;
