@@ -3,10 +3,9 @@
 #include <fstream>
 #include <sstream>
 
-#include <yaml-cpp/yaml.h>
-
 #include "base/input_error.hpp"
 #include "mesh/io/xml.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace scalpel {
 
@@ -14,57 +13,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The check file's reader: every error names the file, the line and column and the key path.
-class Reader {
- public:
-  explicit Reader(fs::path file) : file_(std::move(file)) {}
-
-  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& message) const {
-    const YAML::Mark m = n.Mark();
-    throw InputError(file_.string(), m.line >= 0 ? m.line + 1 : 0, m.line >= 0 ? m.column + 1 : 0, key,
-                     message);
-  }
-  void only(const YAML::Node& map, const std::string& key, std::initializer_list<const char*> keys) const {
-    if (!map.IsMap()) fail(map, key, "expected a map");
-    for (const auto& kv : map) {
-      const std::string k = kv.first.as<std::string>();
-      bool known = false;
-      std::string list;
-      for (const char* allowed : keys) {
-        known = known || k == allowed;
-        list += (list.empty() ? "" : ", ") + std::string(allowed);
-      }
-      if (!known) fail(kv.first, key.empty() ? k : key + "." + k, "unknown key, expected one of: " + list);
-    }
-  }
-  double number(const YAML::Node& n, const std::string& key) const {
-    try {
-      return n.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(n, key, "expected a number");
-    }
-  }
-  bool boolean(const YAML::Node& n, const std::string& key) const {
-    try {
-      return n.as<bool>();
-    } catch (const YAML::Exception&) {
-      fail(n, key, "expected true or false");
-    }
-  }
-  std::string text(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar() || n.Scalar().empty()) fail(n, key, "expected a text");
-    return n.Scalar();
-  }
-  [[nodiscard]] const fs::path& file() const { return file_; }
-
- private:
-  fs::path file_;
-};
-
 std::string format(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
+  return YamlReader::format(x);
+}
+
+// A count >= 0.
+std::size_t count(const YamlReader& r, const YamlValue& v) {
+  const int n = r.integer(v);
+  r.check(v, n >= 0, "a count >= 0");
+  return static_cast<std::size_t>(n);
 }
 
 }  // namespace
@@ -74,53 +31,47 @@ CheckFile load_check_file(const fs::path& path) {
   if (!in) throw InputError(path.string(), 0, 0, "", "cannot open the check file");
   std::stringstream text;
   text << in.rdbuf();
-  const Reader r(path);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text.str());
-  } catch (const YAML::Exception& e) {
-    throw InputError(path.string(), e.mark.line + 1, e.mark.column + 1, "", e.msg);
-  }
-  if (!root.IsMap()) throw InputError(path.string(), 0, 0, "", "expected a map with `sessions`");
-  r.only(root, "", {"sessions"});
-  const YAML::Node sessions = root["sessions"];
-  if (!sessions || !sessions.IsSequence() || sessions.size() == 0)
-    r.fail(sessions ? sessions : root, "sessions", "expected a list of sessions");
+  const YamlReader r(path.string());
+  const std::optional<YamlValue> root = r.root(text.str());
+  if (!root || !root->node.IsMap())
+    throw InputError(path.string(), 0, 0, "", "expected a map with `sessions`");
+  const YamlMap top(r, *root);
+  top.only({"sessions"});
+  const YamlValue sessions = top.require("sessions");
+  const std::vector<YamlValue> items = r.list(sessions, "a list of sessions");
+  if (items.empty()) r.fail(sessions, "expected at least one session");
   CheckFile out;
   out.file = path;
   const fs::path base = path.parent_path();
-  for (std::size_t i = 0; i < sessions.size(); ++i) {
-    const YAML::Node s = sessions[i];
-    const std::string key = "sessions[" + std::to_string(i) + "]";
-    r.only(s, key, {"name", "scenario", "log", "expect"});
+  for (const YamlValue& item : items) {
+    const YamlMap s(r, item);
+    s.only({"name", "scenario", "log", "expect"});
     CheckSession cs;
-    cs.line = s.Mark().line + 1;
-    if (!s["scenario"]) r.fail(s, key + ".scenario", "required: the scenario to replay");
-    cs.scenario = (base / r.text(s["scenario"], key + ".scenario")).lexically_normal();
-    if (s["log"]) cs.log = (base / r.text(s["log"], key + ".log")).lexically_normal();
-    cs.name = s["name"] ? r.text(s["name"], key + ".name") : cs.scenario.stem().string();
-    if (const YAML::Node e = s["expect"]) {
-      const std::string ek = key + ".expect";
-      r.only(e, ek, {"passed", "score", "warnings", "components"});
-      if (e["passed"]) cs.expect.passed = r.boolean(e["passed"], ek + ".passed");
-      if (e["score"]) cs.expect.score = r.number(e["score"], ek + ".score");
-      if (e["warnings"]) {
-        const double w = r.number(e["warnings"], ek + ".warnings");
-        if (w < 0 || w != static_cast<double>(static_cast<std::size_t>(w)))
-          r.fail(e["warnings"], ek + ".warnings", "expected a count >= 0");
-        cs.expect.warnings = static_cast<std::size_t>(w);
-      }
-      if (const YAML::Node c = e["components"]) {
-        if (!c.IsMap()) r.fail(c, ek + ".components", "expected a map of component names");
-        for (const auto& kv : c) {
-          const std::string name = kv.first.as<std::string>();
-          const std::string ck = ek + ".components." + name;
-          r.only(kv.second, ck, {"min", "max", "passed"});
-          ComponentExpectation x;
-          if (kv.second["min"]) x.min = r.number(kv.second["min"], ck + ".min");
-          if (kv.second["max"]) x.max = r.number(kv.second["max"], ck + ".max");
-          if (kv.second["passed"]) x.passed = r.boolean(kv.second["passed"], ck + ".passed");
-          cs.expect.components[name] = x;
+    cs.line = yaml_location(item.mark).line;
+    const auto file = [&](const YamlValue& v) {
+      const std::string name = r.string(v);
+      if (name.empty()) r.fail(v, "expected a file path");
+      return (base / name).lexically_normal();
+    };
+    cs.scenario = file(s.require("scenario"));
+    if (const auto x = s.get("log")) cs.log = file(*x);
+    cs.name = s.has("name") ? r.string(*s.get("name")) : cs.scenario.stem().string();
+    if (const auto x = s.get("expect")) {
+      const YamlMap e(r, *x);
+      e.only({"passed", "score", "warnings", "components"});
+      if (const auto y = e.get("passed")) cs.expect.passed = r.boolean(*y);
+      if (const auto y = e.get("score")) cs.expect.score = r.number(*y);
+      if (const auto y = e.get("warnings")) cs.expect.warnings = count(r, *y);
+      if (const auto y = e.get("components")) {
+        const YamlMap c(r, *y);
+        for (const auto& [name, v] : c.entries()) {
+          const YamlMap bounds(r, v);
+          bounds.only({"min", "max", "passed"});
+          ComponentExpectation want;
+          if (const auto z = bounds.get("min")) want.min = r.number(*z);
+          if (const auto z = bounds.get("max")) want.max = r.number(*z);
+          if (const auto z = bounds.get("passed")) want.passed = r.boolean(*z);
+          cs.expect.components[name] = want;
         }
       }
     }

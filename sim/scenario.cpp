@@ -15,6 +15,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "base/input_error.hpp"
+#include "sim/task_config.hpp"
+#include "sim/yaml_reader.hpp"
 
 namespace scalpel {
 
@@ -23,43 +25,10 @@ namespace fs = std::filesystem;
 namespace {
 
 // Sanity bounds that catch millimetres written as metres and meshes too large to simulate.
-constexpr double kMaxLength = 1.0;          // [m] mesh extent, layer, depth
-constexpr int kMaxCellsPerAxis = 1000;      // hexahedral cells along one axis
-constexpr long long kMaxCells = 2'000'000;  // hexahedral cells of a generated mesh
-constexpr double kUnitTolerance = 1e-6;     // |q| - 1 of a rotation given as a quaternion
-
-SourceLocation location(const YAML::Mark& m) {
-  if (m.line < 0) return {};
-  return {m.line + 1, m.column + 1};
-}
-
-// A YAML value with its key path; `mark` is where the value is written (its key's position when
-// the value is empty), `key_mark` where its key is.
-struct Value {
-  YAML::Node node;
-  std::string path;
-  YAML::Mark mark;
-  YAML::Mark key_mark;
-};
-
-std::string describe(const YAML::Node& n) {
-  switch (n.Type()) {
-    case YAML::NodeType::Map:
-      return "a map";
-    case YAML::NodeType::Sequence:
-      return "a list";
-    case YAML::NodeType::Scalar:
-      return "'" + n.Scalar() + "'";
-    default:
-      return "nothing";
-  }
-}
-
-std::string join(const std::vector<std::string>& items) {
-  std::string s;
-  for (const auto& i : items) s += (s.empty() ? "" : ", ") + i;
-  return s;
-}
+constexpr double kMaxLength = kMaxScenarioLength;  // [m] mesh extent, layer, depth
+constexpr int kMaxCellsPerAxis = 1000;             // hexahedral cells along one axis
+constexpr long long kMaxCells = 2'000'000;         // hexahedral cells of a generated mesh
+constexpr double kUnitTolerance = 1e-6;            // |q| - 1 of a rotation given as a quaternion
 
 std::string region_list(const RegionIds& names) {
   std::vector<std::string> n;
@@ -67,135 +36,15 @@ std::string region_list(const RegionIds& names) {
   return n.empty() ? std::string("none named") : join(n);
 }
 
-class Parser;
+using Value = YamlValue;
+using Map = YamlMap;
 
-// The entries of a YAML map, checked for duplicate and (with only()) unknown keys.
-class Map {
+class Parser : public YamlReader {
  public:
-  Map(const Parser& p, const Value& v);
-  // Every key must be one of `allowed`.
-  void only(std::initializer_list<std::string_view> allowed) const;
-  [[nodiscard]] std::optional<Value> get(std::string_view key) const;
-  [[nodiscard]] Value require(std::string_view key) const;
-  [[nodiscard]] bool has(std::string_view key) const { return get(key).has_value(); }
-  [[nodiscard]] const std::vector<std::pair<std::string, Value>>& entries() const { return entries_; }
-  [[nodiscard]] const Value& self() const { return self_; }
-
- private:
-  const Parser& p_;
-  Value self_;
-  std::vector<std::pair<std::string, Value>> entries_;
-};
-
-class Parser {
- public:
-  Parser(std::string file, fs::path base_dir) : file_(std::move(file)), base_dir_(std::move(base_dir)) {}
+  Parser(std::string file, fs::path base_dir) : YamlReader(std::move(file)), base_dir_(std::move(base_dir)) {}
 
   Scenario parse(const std::string& text) const;
 
-  [[noreturn]] void fail(const YAML::Mark& m, const std::string& path, const std::string& message) const {
-    const SourceLocation l = location(m);
-    throw InputError(file_, l.line, l.column, path, message);
-  }
-  [[noreturn]] void fail(const Value& v, const std::string& message) const { fail(v.mark, v.path, message); }
-
-  // ---- typed scalars -------------------------------------------------------------------------
-  double number(const Value& v) const {
-    if (!v.node.IsScalar()) fail(v, "expected a number, found " + describe(v.node));
-    std::string_view s = v.node.Scalar();
-    if (s.size() > 1 && s.front() == '+') s.remove_prefix(1);
-    double x = 0.0;
-    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x, std::chars_format::general);
-    if (s.empty() || ec != std::errc() || end != s.data() + s.size())
-      fail(v, "expected a number, found " + describe(v.node));
-    if (!std::isfinite(x)) fail(v, "expected a finite number, found " + describe(v.node));
-    return x;
-  }
-  int integer(const Value& v) const {
-    if (!v.node.IsScalar()) fail(v, "expected an integer, found " + describe(v.node));
-    std::string_view s = v.node.Scalar();
-    if (s.size() > 1 && s.front() == '+') s.remove_prefix(1);
-    int x = 0;
-    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-    if (s.empty() || ec != std::errc() || end != s.data() + s.size())
-      fail(v, "expected an integer, found " + describe(v.node));
-    return x;
-  }
-  std::string string(const Value& v) const {
-    if (!v.node.IsScalar()) fail(v, "expected a text, found " + describe(v.node));
-    return v.node.Scalar();
-  }
-  bool boolean(const Value& v) const {
-    const std::string s = v.node.IsScalar() ? v.node.Scalar() : std::string();
-    if (s == "true" || s == "True") return true;
-    if (s == "false" || s == "False") return false;
-    fail(v, "expected true or false, found " + describe(v.node));
-  }
-  // One of `choices`; returns its index.
-  int choice(const Value& v, std::initializer_list<std::string_view> choices) const {
-    const std::string s = string(v);
-    int i = 0;
-    std::vector<std::string> names;
-    for (const auto c : choices) {
-      if (s == c) return i;
-      names.emplace_back(c);
-      ++i;
-    }
-    fail(v, "unknown value '" + s + "', expected one of: " + join(names));
-  }
-  std::vector<Value> list(const Value& v, const std::string& what) const {
-    if (!v.node.IsSequence()) fail(v, "expected " + what + ", found " + describe(v.node));
-    std::vector<Value> out;
-    int i = 0;
-    for (const auto& e : v.node) {
-      const std::string path = v.path + "[" + std::to_string(i++) + "]";
-      const YAML::Mark m = e.IsNull() || e.Mark().line < 0 ? v.mark : e.Mark();
-      out.push_back({e, path, m, m});
-    }
-    return out;
-  }
-  template <int N>
-  Eigen::Matrix<double, N, 1> vector(const Value& v) const {
-    const std::string what = "a list of " + std::to_string(N) + " numbers";
-    const auto items = list(v, what);
-    if (static_cast<int>(items.size()) != N)
-      fail(v, "expected " + what + ", found " + std::to_string(items.size()));
-    Eigen::Matrix<double, N, 1> x;
-    for (int i = 0; i < N; ++i) x[i] = number(items[static_cast<size_t>(i)]);
-    return x;
-  }
-  template <std::size_t N>
-  std::array<int, N> integers(const Value& v, int lo, int hi) const {
-    const std::string what = "a list of " + std::to_string(N) + " integers";
-    const auto items = list(v, what);
-    if (items.size() != N) fail(v, "expected " + what + ", found " + std::to_string(items.size()));
-    std::array<int, N> x{};
-    for (std::size_t i = 0; i < N; ++i) x[i] = in_range(items[i], integer(items[i]), lo, hi);
-    return x;
-  }
-  int in_range(const Value& v, int x, int lo, int hi) const {
-    if (x < lo || x > hi)
-      fail(v, std::to_string(x) + " is out of range, expected " + std::to_string(lo) + " to " +
-                  std::to_string(hi));
-    return x;
-  }
-  // Fails with "<value> is out of range, expected <expected>" unless `ok`.
-  void check(const Value& v, bool ok, const std::string& expected) const {
-    if (!ok)
-      fail(v, (v.node.IsScalar() ? v.node.Scalar() : describe(v.node)) + " is out of range, expected " +
-                  expected);
-  }
-  double positive(const Value& v, double max = std::numeric_limits<double>::infinity()) const {
-    const double x = number(v);
-    check(v, x > 0.0 && x <= max,
-          std::isinf(max) ? std::string("a value > 0") : "0 < value <= " + format(max));
-    return x;
-  }
-  static std::string format(double x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-  }
   fs::path resolve(const std::string& p) const {
     const fs::path path(p);
     return (path.is_absolute() ? path : base_dir_ / path).lexically_normal();
@@ -209,48 +58,11 @@ class Parser {
   void tool(const Value& v, ToolSettings& out) const;
   void device(const Value& v, DeviceSettings& out) const;
   void simulation(const Value& v, SimulationSettings& out) const;
-  Task task(const Value& v) const;
-  Incision incision(const Map& m, const Value& v) const;
-  void pass(const Value& v, PassThresholds& out) const;
   void check_against_mesh(const Scenario& s, const Map& top) const;
 
  private:
-  std::string file_;
   fs::path base_dir_;
 };
-
-Map::Map(const Parser& p, const Value& v) : p_(p), self_(v) {
-  if (!v.node.IsMap()) p.fail(v, "expected a map, found " + describe(v.node));
-  for (const auto& kv : v.node) {
-    const YAML::Mark key_mark = kv.first.Mark();
-    if (!kv.first.IsScalar()) p.fail(key_mark, v.path, "expected a plain key, found " + describe(kv.first));
-    const std::string key = kv.first.Scalar();
-    const std::string path = v.path.empty() ? key : v.path + "." + key;
-    if (get(key)) p.fail(key_mark, path, "duplicate key");
-    const YAML::Mark mark = kv.second.IsNull() || kv.second.Mark().line < 0 ? key_mark : kv.second.Mark();
-    entries_.emplace_back(key, Value{kv.second, path, mark, key_mark});
-  }
-}
-
-void Map::only(std::initializer_list<std::string_view> allowed) const {
-  for (const auto& [key, value] : entries_)
-    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-      std::vector<std::string> names(allowed.begin(), allowed.end());
-      p_.fail(value.key_mark, value.path, "unknown key, expected one of: " + join(names));
-    }
-}
-
-std::optional<Value> Map::get(std::string_view key) const {
-  for (const auto& [k, v] : entries_)
-    if (k == key) return v;
-  return std::nullopt;
-}
-
-Value Map::require(std::string_view key) const {
-  if (auto v = get(key)) return *v;
-  const std::string path = self_.path.empty() ? std::string(key) : self_.path + "." + std::string(key);
-  p_.fail(self_.key_mark, path, "missing required key");
-}
 
 // ---- mesh -----------------------------------------------------------------------------------------
 
@@ -264,7 +76,7 @@ CubeSplit split_of(const Parser& p, const Map& m) {
 
 void Parser::mesh(const Value& v, MeshSource& out) const {
   const Map m(*this, v);
-  out.where = location(v.key_mark);
+  out.where = yaml_location(v.key_mark);
   const auto generator = m.get("generator");
   const auto file = m.get("file");
   if (generator && file) fail(file->key_mark, file->path, "give either 'generator' or 'file', not both");
@@ -360,7 +172,7 @@ void Parser::materials(const Value& v, Scenario& s) const {
     r.only({"young", "poisson", "density", "damping", "prestress"});
     RegionMaterial rm;
     rm.region = region;
-    rm.where = location(rv.key_mark);
+    rm.where = yaml_location(rv.key_mark);
     Material& mat = rm.material;
     mat.young = positive(r.require("young"));
     const Value vp = r.require("poisson");
@@ -419,7 +231,7 @@ void Parser::fixed(const Value& v, std::vector<FixedSelector>& out) const {
     const Map m(*this, item);
     m.only({"side", "box"});
     FixedSelector sel;
-    sel.where = location(item.mark);
+    sel.where = yaml_location(item.mark);
     const auto side = m.get("side");
     const auto box = m.get("box");
     if (side && box) fail(box->key_mark, box->path, "give either 'side' or 'box', not both");
@@ -521,85 +333,6 @@ void Parser::simulation(const Value& v, SimulationSettings& out) const {
   if (const auto x = m.get("cut_recursion_depth")) out.cut_recursion_depth = in_range(*x, integer(*x), 0, 32);
 }
 
-Incision Parser::incision(const Map& m, const Value& v) const {
-  Incision t;
-  t.where = location(v.key_mark);
-  const Value vpath = m.require("path");
-  const auto points = list(vpath, "a list of points [x, y, z]");
-  if (points.size() < 2) fail(vpath, "expected at least 2 points");
-  for (const auto& p : points) {
-    t.path.push_back(vector<3>(p));
-    if (t.path.size() > 1 && t.path[t.path.size() - 2] == t.path.back())
-      fail(p, "repeats the previous point");
-  }
-  if (const auto x = m.get("tolerance")) t.tolerance = positive(*x, 0.1);
-  const Value vdepth = m.require("depth");
-  const auto depth = vector<2>(vdepth);
-  t.depth_min = depth[0];
-  t.depth_max = depth[1];
-  if (!(depth[0] >= 0.0 && depth[0] < depth[1] && depth[1] <= kMaxLength))
-    fail(vdepth, "expected [min, max] with 0 <= min < max <= " + format(kMaxLength) + " [m]");
-  return t;
-}
-
-void Parser::pass(const Value& v, PassThresholds& out) const {
-  const Map m(*this, v);
-  m.only({"score", "coverage", "depth_in_band", "bevel_deg", "strokes", "economy", "time", "force",
-          "force_in_band", "collateral"});
-  const auto fraction = [&](const Value& x) {
-    const double f = number(x);
-    check(x, f >= 0.0 && f <= 1.0, "a fraction 0 to 1");
-    return f;
-  };
-  if (const auto x = m.get("score")) {
-    out.score = number(*x);
-    check(*x, out.score >= 0.0 && out.score <= 100.0, "0 to 100");
-  }
-  if (const auto x = m.get("coverage")) out.coverage = fraction(*x);
-  if (const auto x = m.get("depth_in_band")) out.depth_in_band = fraction(*x);
-  if (const auto x = m.get("bevel_deg")) out.bevel_deg = positive(*x, 90.0);
-  if (const auto x = m.get("strokes")) out.strokes = in_range(*x, integer(*x), 1, 1000);
-  if (const auto x = m.get("economy")) {
-    out.economy = number(*x);
-    check(*x, out.economy >= 1.0, "a ratio >= 1");
-  }
-  if (const auto x = m.get("time")) out.time = positive(*x);
-  if (const auto x = m.get("force")) {
-    const auto f = vector<2>(*x);
-    if (!(f[0] >= 0.0 && f[0] < f[1])) fail(*x, "expected [min, max] with 0 <= min < max [N]");
-    out.force_min = f[0];
-    out.force_max = f[1];
-  }
-  if (const auto x = m.get("force_in_band")) out.force_in_band = fraction(*x);
-  if (const auto x = m.get("collateral")) out.collateral = fraction(*x);
-}
-
-Task Parser::task(const Value& v) const {
-  const Map m(*this, v);
-  m.only({"path", "tolerance", "depth", "incisions", "protected", "pass"});
-  Task t;
-  t.where = location(v.key_mark);
-  if (const auto x = m.get("incisions")) {
-    if (m.get("path") || m.get("tolerance") || m.get("depth"))
-      fail(*x, "give either `incisions` or one incision's `path`, `tolerance` and `depth`, not both");
-    const auto items = list(*x, "a list of incisions {path, tolerance, depth}");
-    if (items.empty()) fail(*x, "expected at least one incision");
-    for (const Value& item : items) {
-      const Map im(*this, item);
-      im.only({"path", "tolerance", "depth"});
-      t.incisions.push_back(incision(im, item));
-    }
-  } else {
-    t.incisions.push_back(incision(m, v));
-  }
-  if (const auto x = m.get("protected")) {
-    t.protected_where = location(x->key_mark);
-    for (const Value& r : list(*x, "a list of region names")) t.protected_regions.push_back(string(r));
-  }
-  if (const auto x = m.get("pass")) pass(*x, t.pass);
-  return t;
-}
-
 // Checks that need the mesh: region names, and a task inside a generated mesh.
 void Parser::check_against_mesh(const Scenario& s, const Map& top) const {
   if (s.mesh.kind == MeshKind::File) return;
@@ -648,20 +381,14 @@ void Parser::check_against_mesh(const Scenario& s, const Map& top) const {
 }
 
 Scenario Parser::parse(const std::string& text) const {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    fail(e.mark, "", e.msg);
-  }
-  if (root.IsNull()) throw InputError(file_, 0, 0, "", "the scenario is empty");
-  const YAML::Mark root_mark = root.Mark();
-  const Map top(*this, Value{root, "", root_mark, root_mark});
+  const std::optional<Value> root = this->root(text);
+  if (!root) throw InputError(file(), 0, 0, "", "the scenario is empty");
+  const Map top(*this, *root);
   top.only({"name", "description", "mesh", "materials", "tissue", "fixed", "tool", "device", "simulation",
             "task", "log"});
 
   Scenario s;
-  s.file = file_;
+  s.file = file();
   s.name = string(top.require("name"));
   if (const auto x = top.get("description")) s.description = string(*x);
   mesh(top.require("mesh"), s.mesh);
@@ -671,13 +398,13 @@ Scenario Parser::parse(const std::string& text) const {
   if (const auto x = top.get("tool")) tool(*x, s.tool);
   if (const auto x = top.get("device")) device(*x, s.device);
   if (const auto x = top.get("simulation")) simulation(*x, s.simulation);
-  if (const auto x = top.get("task")) s.task = task(*x);
+  if (const auto x = top.get("task")) s.task = read_task(*this, *x);
   if (const auto x = top.get("log")) {
     const std::string p = string(*x);
     if (p.empty()) fail(*x, "expected a file path");
     s.log = resolve(p);
   }
-  s.materials_where = location(top.require("materials").key_mark);
+  s.materials_where = yaml_location(top.require("materials").key_mark);
   check_against_mesh(s, top);
   return s;
 }

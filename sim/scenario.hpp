@@ -14,18 +14,13 @@
 
 #include <Eigen/Geometry>
 
+#include "base/source_location.hpp"
 #include "fem/element.hpp"
 #include "fem/material.hpp"
 #include "mesh/generators.hpp"
 #include "mesh/mesh.hpp"
 
 namespace scalpel {
-
-// Where a value was written in the scenario file (1-based; 0 when unknown).
-struct SourceLocation {
-  int line = 0;
-  int column = 0;
-};
 
 enum class MeshKind { Box, Slab, File };
 
