@@ -867,15 +867,6 @@ CutStepStats CutEngine::step(const BladePose& pose) {
   return sweep_to(pose, true);
 }
 
-// The blade's motion through the tissue is what cuts (§3). Between two tool samples the tissue
-// model moves the tissue under a blade that stands still: dragged along by the blade's resistance,
-// springing back, gaping. Tissue that moved into the sharp edge must be cut as if the edge had moved
-// into it, or a blade lifted out of skin it had dragged along leaves the lips joined. The tissue's
-// displacement under the blade is taken at points along its part inside the tissue, from the units
-// holding them before the move, and averaged: a translation, since the tissue turns little under the
-// blade within one tissue step. Only its part against the sharp edge counts (the cutting direction,
-// or the blade's last motion across itself): tissue pressed against the flat of the blade, or
-// sliding along it, is pushed, not cut (Eq. 1).
 template <class F>
 bool CutEngine::for_units_at(const Vec3& p, F&& f) const {
   constexpr double kSlack = 1e-9;  // a point on a shared face belongs to either side
@@ -897,6 +888,15 @@ bool CutEngine::for_units_at(const Vec3& p, F&& f) const {
   return done;
 }
 
+// The blade's motion through the tissue is what cuts (§3). Between two tool samples the tissue
+// model moves the tissue under a blade that stands still: dragged along by the blade's resistance,
+// springing back, gaping. Tissue that moved into the sharp edge must be cut as if the edge had moved
+// into it, or a blade lifted out of skin it had dragged along leaves the lips joined. The tissue's
+// displacement under the blade is taken at points along its part inside the tissue, from the units
+// holding them before the move, and averaged: a translation, since the tissue turns little under the
+// blade within one tissue step. Only its part against the sharp edge counts (the cutting direction,
+// or the blade's last motion across itself): tissue pressed against the flat of the blade, or
+// sliding along it, is pushed, not cut (Eq. 1).
 CutStepStats CutEngine::follow_tissue() {
   Vec3 moved = Vec3::Zero();
   int inside = 0;
