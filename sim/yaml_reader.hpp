@@ -1,6 +1,6 @@
 // Reading the project's YAML files (scenarios, CI check files) so that every error names the file,
-// the line and column, and the key path (docs/formats.md, "Errors"): an InputError, never a
-// yaml-cpp exception.
+// the line and column, and the key path (`file:line:column: field: message`, docs/formats.md): an
+// InputError, never a yaml-cpp exception.
 #pragma once
 
 #include <array>
