@@ -25,10 +25,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // Sanity bounds that catch millimetres written as metres and meshes too large to simulate.
-constexpr double kMaxLength = kMaxScenarioLength;  // [m] mesh extent, layer, depth
-constexpr int kMaxCellsPerAxis = 1000;             // hexahedral cells along one axis
-constexpr long long kMaxCells = 2'000'000;         // hexahedral cells of a generated mesh
-constexpr double kUnitTolerance = 1e-6;            // |q| - 1 of a rotation given as a quaternion
+constexpr int kMaxCellsPerAxis = 1000;      // hexahedral cells along one axis
+constexpr long long kMaxCells = 2'000'000;  // hexahedral cells of a generated mesh
+constexpr double kUnitTolerance = 1e-6;     // |q| - 1 of a rotation given as a quaternion
 
 std::string region_list(const RegionIds& names) {
   std::vector<std::string> n;
@@ -97,7 +96,7 @@ void Parser::mesh(const Value& v, MeshSource& out) const {
   }
 
   const int kind = choice(*generator, {"box", "slab"});
-  const std::string max_length = format(kMaxLength);
+  const std::string max_length = format(kMaxScenarioLength);
   if (kind == 0) {
     m.only({"generator", "min", "max", "cells", "split", "region"});
     out.kind = MeshKind::Box;
@@ -106,7 +105,7 @@ void Parser::mesh(const Value& v, MeshSource& out) const {
     out.box.max = vector<3>(vmax);
     for (int a = 0; a < 3; ++a) {
       const double extent = out.box.max[a] - out.box.min[a];
-      if (!(extent > 0.0 && extent <= kMaxLength))
+      if (!(extent > 0.0 && extent <= kMaxScenarioLength))
         fail(vmax, "max - min = " + format(extent) + " on axis " + "xyz"[a] +
                        ", expected 0 < max - min <= " + max_length + " [m]");
     }
@@ -127,7 +126,7 @@ void Parser::mesh(const Value& v, MeshSource& out) const {
   const Value vsize = m.require("size");
   const auto size = vector<2>(vsize);
   for (int a = 0; a < 2; ++a)
-    if (!(size[a] > 0.0 && size[a] <= kMaxLength))
+    if (!(size[a] > 0.0 && size[a] <= kMaxScenarioLength))
       fail(vsize,
            "size " + format(size[a]) + " is out of range, expected 0 < size <= " + max_length + " [m]");
   out.slab.size_x = size[0];
@@ -150,13 +149,13 @@ void Parser::mesh(const Value& v, MeshSource& out) const {
     if (layer.name.empty()) fail(vname, "expected a region name");
     for (const auto& other : out.slab.layers)
       if (other.name == layer.name) fail(vname, "duplicate layer name '" + layer.name + "'");
-    layer.thickness = positive(l.require("thickness"), kMaxLength);
+    layer.thickness = positive(l.require("thickness"), kMaxScenarioLength);
     layer.cells = in_range(l.require("cells"), integer(l.require("cells")), 1, kMaxCellsPerAxis);
     layer_cells += layer.cells;
     depth += layer.thickness;
     out.slab.layers.push_back(layer);
   }
-  if (depth > kMaxLength)
+  if (depth > kMaxScenarioLength)
     fail(vlayers, "total thickness " + format(depth) + " exceeds " + max_length + " [m]");
   if (layer_cells * out.slab.cells[0] * out.slab.cells[1] > kMaxCells)
     fail(vcells, "more than " + std::to_string(kMaxCells) + " cells");
