@@ -266,8 +266,14 @@ CanonicalState CutEngine::state(std::uint32_t coarse_slot) const {
 
 std::string CutEngine::state_label_of(std::uint32_t coarse_slot) const {
   const auto it = cut_tets_.find(coarse_slot);
-  if (it == cut_tets_.end()) return "O0";
+  if (it == cut_tets_.end()) return table_.label({}, false);
   return table_.label(it->second.topology, it->second.complete);
+}
+
+int CutEngine::state_code_of(std::uint32_t coarse_slot) const {
+  const auto it = cut_tets_.find(coarse_slot);
+  if (it == cut_tets_.end()) return table_.label_code({}, false);
+  return table_.label_code(it->second.topology, it->second.complete);
 }
 
 std::vector<std::size_t> CutEngine::subdivision_sizes() const {
@@ -785,9 +791,16 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
 // where the cut surface now surrounds a node, and updates the live mesh.
 std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
                               const std::set<std::uint32_t>& left_faces_tets, CutStepStats& stats) {
-  std::set<std::uint32_t> completion_candidates = affected;
-  completion_candidates.insert(left_faces_tets.begin(), left_faces_tets.end());
-  // Subdivide the affected tetrahedra again and record their transitions.
+  // The state before the step of every tetrahedron that may change, recorded once per step below.
+  std::map<std::uint32_t, MachineState> before;
+  for (const auto* set : {&affected, &left_faces_tets})
+    for (const std::uint32_t t : *set) {
+      const auto it = cut_tets_.find(t);
+      before.try_emplace(t, it == cut_tets_.end()
+                                ? MachineState{}
+                                : MachineState{it->second.state.reference, it->second.complete});
+    }
+  // Subdivide the affected tetrahedra again.
   std::set<std::uint32_t> regroup_ids;
   for (const std::uint32_t t : affected) {
     auto [it, fresh] = cut_tets_.try_emplace(t);
@@ -798,7 +811,6 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
       c.real = {mesh_.tet_nodes(live)};
       ++totals_.coarse_tets_cut;
     }
-    const std::string before = table_.label(c.topology, c.complete);
     c.topology = compute_topology(t);
     c.state = canonicalize(c.topology);
     subdivide(t, c.subs);
@@ -806,16 +818,11 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
       for (const GNode g : s)
         if ((g & kCutBit) && opens(static_cast<std::uint32_t>(g & ~kCutBit)))
           regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
-    c.complete = false;
-    const std::string after = table_.label(c.topology, c.complete);
-    if (before != after) {
-      ++stats.transitions;
-      ++totals_.transitions[before + "->" + after];
-    }
   }
-  // Completion: a cut tetrahedron none of whose faces the blade crosses any more is in an end state.
-  // Only tetrahedra whose state changed or whose faces the blade left can have completed.
-  for (const std::uint32_t t : completion_candidates) {
+  // Completion (§4.3, "leave"): a cut tetrahedron none of whose faces the blade crosses any more is
+  // in an end state; one the blade crosses again is open (a stroke extending its cut). Only
+  // tetrahedra whose cut changed or whose faces the blade left can change.
+  for (const auto& [t, from] : before) {
     const auto it = cut_tets_.find(t);
     if (it == cut_tets_.end()) continue;
     CoarseTet& c = it->second;
@@ -825,12 +832,16 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
       const std::uint32_t id = face_node(mid_nodes_, sorted_key(fv[0], fv[1], fv[2]));
       crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
     }
-    if (!crossed && !c.complete && c.topology.edges != 0) {
-      const std::string before = table_.label(c.topology, false);
+    if (affected.count(t))
+      c.complete = !crossed && c.topology.edges != 0;
+    else if (!crossed && c.topology.edges != 0)
       c.complete = true;
-      ++stats.transitions;
-      ++totals_.transitions[before + "->" + table_.label(c.topology, true)];
-    }
+    const MachineState to{c.state.reference, c.complete};
+    if (to == from) continue;
+    ++stats.transitions;
+    ++totals_.transitions[table_.label(from.topology, from.complete) + "->" +
+                          table_.label(to.topology, to.complete)];
+    ++totals_.state_transitions[{from.key(), to.key()}];
   }
 
   // Open the crack where the cut surface now surrounds a node.

@@ -140,7 +140,7 @@ struct CutStepStats {
   std::size_t tets_created = 0;
   std::size_t tets_removed = 0;
   std::size_t nodes_created = 0;
-  std::size_t transitions = 0;   // coarse tetrahedra whose state changed
+  std::size_t transitions = 0;   // coarse tetrahedra whose state changed (once per step each)
   std::size_t tets_touched = 0;  // coarse tetrahedra the sweep touched
 };
 
@@ -154,6 +154,9 @@ struct CutTotals {
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
   std::map<std::string, std::size_t> transitions;  // "A0->B0": count
+  // The same, by full state (MachineState::key() of the state before and after the step): what
+  // tests hold against the table's machine.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> state_transitions;
   void add(const CutStepStats& s);
 };
 
@@ -189,6 +192,7 @@ class CutEngine {
   // vertex transform.p[i]).
   [[nodiscard]] CanonicalState state(std::uint32_t coarse_slot) const;
   [[nodiscard]] std::string state_label_of(std::uint32_t coarse_slot) const;
+  [[nodiscard]] int state_code_of(std::uint32_t coarse_slot) const;  // CutTable::label_code()
   // The coarse tetrahedron a live tetrahedron belongs to (itself if never cut).
   [[nodiscard]] std::uint32_t coarse_of(TetId live) const;
   // Number of live sub-tetrahedra per cut coarse tetrahedron, for statistics.

@@ -4,6 +4,7 @@
 #include <deque>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "base/input_error.hpp"
@@ -145,6 +146,7 @@ class Parser {
     for (const char other : table.class_letter)
       if (other == t[1].text[0]) fail(t[1], "class", "letter '" + t[1].text + "' is used twice");
     table.class_letter[c] = t[1].text[0];
+    table.letters += t[1].text[0];
   }
 
   // instruction := "split" ("face"|"part") FACE "at" ("entry"|"mid") FACE ["when" cond]
@@ -259,6 +261,11 @@ std::string CutTable::label(const CutTopology& t, bool complete) const {
   return s;
 }
 
+int CutTable::label_code(const CutTopology& t, bool complete) const {
+  const std::string s = label(t, complete);
+  return static_cast<int>(letters.find(s[0])) * 10 + (s[1] - '0');
+}
+
 CutTable parse_cut_table(const std::string& text, const std::string& file_name) {
   return Parser(text, file_name).parse();
 }
@@ -278,6 +285,7 @@ const std::vector<CutEvent>& all_cut_events() {
     for (std::uint8_t f = 0; f < 4; ++f) v.push_back({CutEvent::Kind::Pierce, f});
     for (std::uint8_t f = 0; f < 4; ++f) v.push_back({CutEvent::Kind::Cross, f});
     v.push_back({CutEvent::Kind::Leave, 0});
+    for (std::uint8_t f = 0; f < 4; ++f) v.push_back({CutEvent::Kind::Withdraw, f});
     return v;
   }();
   return events;
@@ -301,37 +309,57 @@ std::string event_name(const CutEvent& e) {
       return "cross " + face(e.index);
     case CutEvent::Kind::Leave:
       return "leave";
+    case CutEvent::Kind::Withdraw:
+      return "withdraw " + face(e.index);
   }
   return "?";
 }
 
 Transition apply_event(const CutTable& table, const MachineState& s, const CutEvent& e) {
   Transition tr;
-  if (s.complete) return tr;  // a second pass through a finished tetrahedron: recursive (§6)
+  // An event on an end state re-opens it: the blade has come back to the tetrahedron's cut (a
+  // reversal, a stroke resumed along it). Whether it is the same surface is geometry, decided by the
+  // engine (docs/state_machine.md); a different one goes to the recursive continuation (§6).
   CutTopology t = s.topology;
   bool complete = false;
   switch (e.kind) {
     case CutEvent::Kind::CutEdge: {
       if (t.edges & (1u << e.index)) return tr;  // edge cut twice
       t.edges |= static_cast<std::uint8_t>(1u << e.index);
-      if (!table.representable(t.edges)) return tr;
+      // Beyond the planar patterns: in an end state, a second surface (the continuation's case);
+      // in an open one, the blade folding back through its own cut (a turning blade, tremor
+      // across its plane), which the subdivision holds as it is (docs/state_machine.md).
+      if (s.complete && !table.representable(t.edges)) return tr;
       const auto& ev = kEdgeVertices[e.index];
       for (int f = 0; f < 4; ++f)  // faces holding the edge: those opposite the other two vertices
         if (f != ev[0] && f != ev[1]) t.faces |= static_cast<std::uint8_t>(1u << f);
       break;
     }
     case CutEvent::Kind::Pierce:
-      if ((t.entries & (1u << e.index)) || __builtin_popcount(t.entries) >= 2) return tr;
+      // A tumbling tip may enter and leave by any number of faces; the label counts two at most.
+      if (t.entries & (1u << e.index)) return tr;
       t.entries |= static_cast<std::uint8_t>(1u << e.index);
       break;
     case CutEvent::Kind::Cross:
-      if (t.faces & (1u << e.index)) return tr;  // the face holds a mid node already: crossed twice
+      // A face holding a mid node already: crossed again, which re-opens an end state and changes
+      // nothing in an open one.
+      if ((t.faces & (1u << e.index)) && !s.complete) return tr;
       t.faces |= static_cast<std::uint8_t>(1u << e.index);
       break;
     case CutEvent::Kind::Leave:
-      if (t.edges == 0 && t.faces == 0 && t.entries == 0) return tr;
+      if (s.complete || (t.edges == 0 && t.faces == 0 && t.entries == 0)) return tr;
       complete = true;
       break;
+    case CutEvent::Kind::Withdraw: {
+      if (!(t.entries & (1u << e.index))) return tr;
+      for (int edge = 0; edge < 6; ++edge)  // the face's edges: those without its opposite vertex
+        if ((t.edges & (1u << edge)) && kEdgeVertices[static_cast<size_t>(edge)][0] != e.index &&
+            kEdgeVertices[static_cast<size_t>(edge)][1] != e.index)
+          return tr;
+      t.entries &= static_cast<std::uint8_t>(~(1u << e.index));
+      t.faces &= static_cast<std::uint8_t>(~(1u << e.index));
+      break;
+    }
   }
   const CanonicalState c = canonicalize(t);
   tr.valid = true;
@@ -340,26 +368,26 @@ Transition apply_event(const CutTable& table, const MachineState& s, const CutEv
   return tr;
 }
 
-std::vector<MachineState> reachable_states(const CutTable& table) {
-  std::vector<MachineState> out{{CutTopology{}, false}};
+std::vector<MachineState> reachable_states(const CutTable& table, const MachineState& from) {
+  std::vector<MachineState> out{from};
   std::deque<size_t> queue{0};
-  auto key = [](const MachineState& s) {
-    return (static_cast<std::uint32_t>(s.topology.edges) << 9) | (s.topology.faces << 5) |
-           (s.topology.entries << 1) | (s.complete ? 1u : 0u);
-  };
-  std::map<std::uint32_t, size_t> seen{{key(out[0]), 0}};
+  std::set<std::uint32_t> seen{from.key()};
   while (!queue.empty()) {
     const MachineState s = out[queue.front()];
     queue.pop_front();
     for (const CutEvent& e : all_cut_events()) {
       const Transition tr = apply_event(table, s, e);
-      if (!tr.valid || seen.count(key(tr.next))) continue;
-      seen.emplace(key(tr.next), out.size());
+      if (!tr.valid || !seen.insert(tr.next.key()).second) continue;
       queue.push_back(out.size());
       out.push_back(tr.next);
     }
   }
   return out;
+}
+
+bool reaches(const CutTable& table, const MachineState& from, const MachineState& to) {
+  const auto all = reachable_states(table, from);
+  return std::find(all.begin(), all.end(), to) != all.end();
 }
 
 }  // namespace scalpel

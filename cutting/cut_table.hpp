@@ -42,6 +42,7 @@ struct CutInstruction {
 struct CutTable {
   std::string source;                   // script path
   std::array<char, 11> class_letter{};  // per EdgeClass
+  std::string letters;                  // the class letters in the script's order
   std::vector<std::uint8_t> patterns;   // representable maximal edge masks (reference labels)
   std::vector<CutInstruction> program;  // the subdivision program
 
@@ -49,6 +50,8 @@ struct CutTable {
   [[nodiscard]] bool representable(std::uint8_t edge_mask) const;
   // "A0", "D3", ...: class letter, then the number of entry nodes (or 3 when complete).
   [[nodiscard]] std::string label(const CutTopology& t, bool complete) const;
+  // The label as a number (for VTK cell data): 10 x the letter's place in the script + the digit.
+  [[nodiscard]] int label_code(const CutTopology& t, bool complete) const;
 };
 
 // Parses a script; errors are InputError naming file, line, column and the offending word.
@@ -57,35 +60,55 @@ struct CutTable {
 // The table bundled with the program (config/cutting/state_machine.cut, compiled in).
 [[nodiscard]] const CutTable& default_cut_table();
 
-// The events that drive the machine (§4.3), in reference labels.
+// The events that drive the machine (§4.3, §5.1), in reference labels: the blade cuts an edge, its
+// tip pierces a face (an entry node), the blade crosses a face (a mid node), it leaves the
+// tetrahedron (an end state), or the tip withdraws by a face it entered before any edge of that
+// face was cut (tremble: the face's entry and mid nodes go).
 struct CutEvent {
-  enum class Kind : std::uint8_t { CutEdge, Pierce, Cross, Leave };
+  enum class Kind : std::uint8_t { CutEdge, Pierce, Cross, Leave, Withdraw };
   Kind kind = Kind::CutEdge;
   std::uint8_t index = 0;  // edge index for CutEdge; face index for Pierce and Cross
   friend bool operator==(const CutEvent&, const CutEvent&) = default;
 };
 [[nodiscard]] std::string event_name(const CutEvent& e);
-// All 15 events: 6 edge cuts, 4 pierces, 4 crossings, leave.
+// All 19 events: 6 edge cuts, 4 pierces, 4 crossings, leave, 4 withdrawals.
 [[nodiscard]] const std::vector<CutEvent>& all_cut_events();
 
 struct MachineState {
   CutTopology topology;  // canonical representative
   bool complete = false;
   friend bool operator==(const MachineState&, const MachineState&) = default;
+  // A number per state (15 bits), for sets and maps.
+  [[nodiscard]] std::uint32_t key() const {
+    return (std::uint32_t{topology.edges} << 9) | (std::uint32_t{topology.faces} << 5) |
+           (std::uint32_t{topology.entries} << 1) | (complete ? 1u : 0u);
+  }
+  [[nodiscard]] static MachineState from_key(std::uint32_t key) {
+    return {{static_cast<std::uint8_t>(key >> 9), static_cast<std::uint8_t>((key >> 5) & 15u),
+             static_cast<std::uint8_t>((key >> 1) & 15u)},
+            (key & 1u) != 0};
+  }
 };
 
 // The result of one (state, event) pair: the next state, or invalid (the recursive continuation's
-// case: an edge cut twice, a face pierced twice, an unrepresentable pattern).
+// case: an edge cut twice, a face pierced or crossed twice, an unrepresentable pattern; or an event
+// that cannot happen: leaving twice, withdrawing by a face never entered or already cut).
 struct Transition {
   bool valid = false;
   MachineState next;
   Perm4 relative;  // reference labels of `next` in terms of the reference labels of the source
 };
 
-// Applies an event to a state (faces around a cut edge gain mid nodes, as the engine does).
+// Applies an event to a state (faces around a cut edge gain mid nodes, as the engine does). An
+// event on an end state re-opens it.
 [[nodiscard]] Transition apply_event(const CutTable& table, const MachineState& s, const CutEvent& e);
 
-// The states reachable from O0 by valid events, breadth first, in a deterministic order.
-[[nodiscard]] std::vector<MachineState> reachable_states(const CutTable& table);
+// The states reachable from `from` (O0 by default) by valid events, breadth first, in a
+// deterministic order; `from` first.
+[[nodiscard]] std::vector<MachineState> reachable_states(const CutTable& table,
+                                                         const MachineState& from = {});
+// Whether events of the table lead from `from` to `to` (one tool sample may bring several: the
+// engine's transitions are these).
+[[nodiscard]] bool reaches(const CutTable& table, const MachineState& from, const MachineState& to);
 
 }  // namespace scalpel

@@ -17,6 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "base/input_error.hpp"
+#include "cutting/cut_table.hpp"
+#include "cutting/state_graph.hpp"
 #include "devices/device_profile.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/mock_device.hpp"
@@ -249,6 +251,13 @@ int cmd_validate(const std::string& path, bool strict) {
   const auto warnings = scenario_warnings(scenario, m.mesh);
   for (const InputWarning& w : warnings) std::cerr << "warning: " << w.message << " (" << w.code << ")\n";
   return strict && !warnings.empty() ? kExitStrict : 0;
+}
+
+// The reachable state machine of the bundled table, or of a script: a listing, or Graphviz.
+int cmd_states(const std::string& table_path, bool dot) {
+  const CutTable table = table_path.empty() ? default_cut_table() : load_cut_table(table_path);
+  std::cout << (dot ? state_dot(table) : state_listing(table));
+  return 0;
 }
 
 int cmd_inspect(const std::string& path, bool as_json) {
@@ -539,6 +548,14 @@ int main(int argc, char** argv) {
   inspect_cmd->add_option("mesh", mesh_path, "Mesh file: .msh (2.2/4.1 ASCII), .node/.ele, .vtu")->required();
   inspect_cmd->add_flag("--json", json, "Print JSON");
 
+  std::string table_path;
+  bool dot = false;
+  auto* states_cmd = app.add_subcommand(
+      "states", "List the cut state machine's reachable states, or draw it with Graphviz (--dot)");
+  states_cmd->add_option("--table", table_path,
+                         "State machine script (default: the bundled config/cutting/state_machine.cut)");
+  states_cmd->add_flag("--dot", dot, "Print a Graphviz digraph: scalpelsim states --dot | dot -Tsvg");
+
   std::vector<std::string> report_sessions;
   std::string report_out = "report";
   auto* report_cmd = app.add_subcommand(
@@ -626,6 +643,7 @@ int main(int argc, char** argv) {
     if (*check_cmd) return cmd_check(check_file, out, junit);
     if (*report_cmd) return cmd_report(report_sessions, report_out);
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
+    if (*states_cmd) return cmd_states(table_path, dot);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
     if (*record_cmd) return cmd_record(rec);

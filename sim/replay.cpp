@@ -113,14 +113,6 @@ json task_json(const TaskScore& t) {
   return j;
 }
 
-// Cut state as a number for VTK cell data: 10 * class + digit, class in the order of the labels'
-// letters O A B C D E G H I J K (0..10), digit the label's digit.
-int cut_state_code(const std::string& label) {
-  static const std::string letters = "OABCDEGHIJK";
-  const auto c = letters.find(label[0]);
-  return static_cast<int>(c == std::string::npos ? 99 : c) * 10 + (label[1] - '0');
-}
-
 void write_mesh_vtu(const Simulation& sim, const std::filesystem::path& path) {
   const TetMesh& m = sim.mesh();
   const auto comps = connected_components(m);
@@ -131,7 +123,7 @@ void write_mesh_vtu(const Simulation& sim, const std::filesystem::path& path) {
   for (const TetId t : m.tets()) {
     component.values[t.index] = comps.of_tet[t.index];
     parent.values[t.index] = m.parent(t);
-    state.values[t.index] = cut_state_code(sim.cutter().state_label_of(sim.cutter().coarse_of(t)));
+    state.values[t.index] = sim.cutter().state_code_of(sim.cutter().coarse_of(t));
   }
   data.cell_ints = {std::move(component), std::move(parent), std::move(state)};
   VtuVectorPointArray rest{"rest_position", m.rest_positions()};

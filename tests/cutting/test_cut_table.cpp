@@ -8,6 +8,7 @@
 #include "base/input_error.hpp"
 #include "cutting/cut_engine.hpp"
 #include "cutting/cut_table.hpp"
+#include "cutting/state_graph.hpp"
 #include "mesh/generators.hpp"
 #include "mesh/topology.hpp"
 #include "mesh/validate.hpp"
@@ -97,9 +98,7 @@ bool planar_edges(std::uint8_t edges) {
 }
 
 std::uint32_t state_key(const MachineState& s) {
-  return (static_cast<std::uint32_t>(s.topology.edges) << 9) |
-         (static_cast<std::uint32_t>(s.topology.faces) << 5) |
-         (static_cast<std::uint32_t>(s.topology.entries) << 1) | (s.complete ? 1u : 0u);
+  return s.key();
 }
 
 MachineState state_of(const CutTopology& local, bool complete) {
@@ -114,6 +113,9 @@ CutEvent pierce(std::uint8_t face) {
 }
 CutEvent cross(std::uint8_t face) {
   return {CutEvent::Kind::Cross, static_cast<std::uint8_t>(std::countr_zero(face))};
+}
+CutEvent withdraw(std::uint8_t face) {
+  return {CutEvent::Kind::Withdraw, static_cast<std::uint8_t>(std::countr_zero(face))};
 }
 constexpr CutEvent kLeave{CutEvent::Kind::Leave, 0};
 
@@ -153,22 +155,21 @@ void check_invalid(const CutTopology& from, bool complete, CutEvent event) {
 
 }  // namespace
 
-TEST_CASE("reachable states: the search finds exactly the states the event rules allow, 165") {
-  // From the rules (docs/state_machine.md, "Events"): a topology is reachable iff its cut edges are
-  // planar, its mid faces include the two faces of every cut edge (other faces gain one by a
-  // crossing, before any cut reaches them) and at most two faces hold an entry node; crossings,
-  // then cuts, then pierces reach it. Each is reachable incomplete, and complete after a leave,
-  // except the empty topology. Up to S4 that is 83 topologies, so 2 * 83 - 1 states.
+TEST_CASE("reachable states: the search finds exactly the states the event rules allow, 321") {
+  // From the rules (docs/state_machine.md, "Events"): a topology is reachable iff its mid faces
+  // include the two faces of every cut edge (other faces gain one by a crossing, before any cut
+  // reaches them); any edges may be cut while the blade is in the tetrahedron (beyond the planar
+  // patterns, a fold), and any faces may hold an entry node (a tumbling tip); crossings, then cuts,
+  // then pierces reach it. Each is reachable incomplete, and complete after a leave, except the
+  // empty topology. Up to S4 that is 161 topologies, so 2 * 161 - 1 states.
   std::set<std::uint32_t> expected;
   for (unsigned edges = 0; edges < 64; ++edges) {
-    if (!planar_edges(static_cast<std::uint8_t>(edges))) continue;
     std::uint8_t required_faces = 0;
     for (int e = 0; e < 6; ++e)
       if (edges & (1u << e)) required_faces |= kFacesOfEdge[static_cast<size_t>(e)];
     for (unsigned faces = 0; faces < 16; ++faces) {
       if ((faces & required_faces) != required_faces) continue;
       for (unsigned entries = 0; entries < 16; ++entries) {
-        if (std::popcount(entries) > 2) continue;
         const CutTopology t{static_cast<std::uint8_t>(edges), static_cast<std::uint8_t>(faces),
                             static_cast<std::uint8_t>(entries)};
         expected.insert(state_key(state_of(t, false)));
@@ -176,7 +177,7 @@ TEST_CASE("reachable states: the search finds exactly the states the event rules
       }
     }
   }
-  CHECK(expected.size() == 165);
+  CHECK(expected.size() == 321);
 
   const CutTable& table = default_cut_table();
   const auto states = reachable_states(table);
@@ -189,9 +190,9 @@ TEST_CASE("reachable states: the search finds exactly the states the event rules
     labels.insert(table.label(s.topology, s.complete));
   }
   CHECK(states.size() == expected.size());  // and, with the two above, everything they allow
-  // The letters of the planar classes, each with 0, 1 or 2 entry nodes and complete (3): 28 labels.
+  // The letters of every class, each with 0, 1 or 2 entry nodes and complete (3): 44 labels.
   std::set<std::string> expected_labels;
-  for (const char letter : std::string("OABCDEG"))
+  for (const char letter : std::string("OABCDEGHIJK"))
     for (const char digit : std::string("0123")) expected_labels.insert(std::string{letter, digit});
   CHECK(labels == expected_labels);
 }
@@ -227,19 +228,38 @@ TEST_CASE("transitions derived by hand from the script and the event rules") {
   check_transition(O1, false, cut(AB), {AB, ABC | ABD, BCD}, false, "A1");
   check_transition(O1, false, kLeave, O1, true, "O3");
 
-  // Three edges on one face (H), four not a loop (I), five (J): not planar, recursive continuation.
-  check_invalid(B0, false, cut(BC));
-  check_invalid(C0, false, cut(BC));
-  check_invalid(D0, false, cut(BC));
-  check_invalid(E0, false, cut(AD));
-  // An edge cut twice, a face crossed twice, a face pierced twice, a third pierce.
+  // Three edges on one face (H), four not a loop (I), five (J): beyond the planar patterns. The
+  // blade folding back through its own cut while it is in the tetrahedron (a fold, held as it is);
+  // in an end state a second surface, the recursive continuation's case.
+  for (std::uint8_t m = 0; m < 64; ++m) CHECK(default_cut_table().representable(m) == planar_edges(m));
+  check_transition(B0, false, cut(BC), {AB | AC | BC, ABC | ABD | ACD | BCD, 0}, false, "H0");
+  check_transition(C0, false, cut(BC), {AB | AC | BC | CD, ABC | ABD | ACD | BCD, 0}, false, "I0");
+  check_transition(E0, false, cut(AD), {AB | AC | AD | BD | CD, ABC | ABD | ACD | BCD, 0}, false, "J0");
+  check_invalid(B0, true, cut(BC));
+  check_invalid(C0, true, cut(BC));
+  check_invalid(D0, true, cut(BC));
+  check_invalid(E0, true, cut(AD));
+  // An edge cut twice, a face crossed twice, a face pierced twice. A third pierce is a tumbling tip
+  // (the label counts two).
   check_invalid(A0, false, cut(AB));
   check_invalid(A0, false, cross(ABC));
   check_invalid(O1, false, pierce(BCD));
-  check_invalid(O2, false, pierce(ABD));
-  // Leaving an untouched tetrahedron; any event on a finished one.
+  check_transition(O2, false, pierce(ABD), {0, 0, BCD | ACD | ABD}, false, "O2");
+  // Leaving an untouched tetrahedron, or a finished one.
   check_invalid(O0, false, kLeave);
-  for (const CutEvent& e : all_cut_events()) check_invalid(D0, true, e);
+  check_invalid(D0, true, kLeave);
+  // The blade back in a finished tetrahedron re-opens it: crossing a face again, or extending the
+  // cut by a pierce; a cut that leaves the planar patterns is the continuation's (invalid).
+  check_transition(D0, true, cross(ABC), D0, false, "D0");
+  check_transition(D0, true, pierce(BCD), {AB | AC | AD, ABC | ABD | ACD, BCD}, false, "D1");
+  check_transition(A0, true, cut(AC), B0, false, "B0");
+  check_invalid(D0, true, cut(BC));
+  // Tremble (§5.1): the tip withdraws by the face it entered, before any edge of it is cut; its
+  // entry and mid nodes go.
+  check_transition(O1, false, withdraw(BCD), O0, false, "O0");
+  check_transition({AB, ABC | ABD | BCD, BCD}, false, withdraw(BCD), A0, false, "A0");
+  check_invalid({AB, ABC | ABD, ABC}, false, withdraw(ABC));  // AB, an edge of ABC, is cut
+  check_invalid(O1, false, withdraw(ACD));                    // never entered
 
   // From O0 every event but leave is valid, and by symmetry they lead to three states: one cut
   // edge, one entry node, one mid node.
@@ -337,4 +357,27 @@ TEST_CASE("exhaustive table check: every reachable state under all 24 permutatio
         ++checked;
       }
   MESSAGE("checked " << checked << " (state, permutation, neighbourhood) cases");
+}
+
+TEST_CASE("the state listing and the Graphviz drawing hold the reachable machine") {
+  const CutTable& table = default_cut_table();
+  const std::string listing = state_listing(table);
+  std::size_t lines = 0;
+  for (std::size_t at = 0; (at = listing.find('\n', at)) != std::string::npos; ++at) ++lines;
+  CHECK(lines == 2 + reachable_states(table).size());  // two comment lines, then one per state
+  CHECK(listing.find("\nD3  AB AC AD | ") != std::string::npos);
+
+  const std::string dot = state_dot(table);
+  CHECK(dot.rfind("// The cut state machine", 0) == 0);
+  for (const char letter : std::string("OABCDEGHIJK"))
+    for (const char digit : std::string("0123"))
+      CHECK(dot.find(std::string{letter, digit}) != std::string::npos);
+  CHECK(dot.find("B0 -> H0 [label=\"cut\"]") != std::string::npos);  // a fold
+  CHECK(dot.find("B3 -> H") == std::string::npos);  // a second surface in an end state: continuation
+  CHECK(dot.find("D0 -> D3 [label=\"leave\"]") != std::string::npos);
+  CHECK(dot.find("B0 -> D0 [label=\"cut\"]") != std::string::npos);
+  CHECK(dot.find("O1 -> O0 [label=\"withdraw\", style=dotted]") != std::string::npos);
+  CHECK(dot.find("D3 -> D0 [label=\"cross, withdraw\", color=grey50, fontcolor=grey50]") !=
+        std::string::npos);
+  CHECK(dot.find("D0 -> B0") == std::string::npos);  // a cut is never undone
 }

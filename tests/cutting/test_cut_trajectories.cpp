@@ -265,6 +265,14 @@ void run_checked(const Scene& s, const std::vector<Sample>& samples, Kind kind, 
   }
   const auto report = validate(mesh, {.reference_volume = s.volume});
   if (!report.ok()) FAIL_CHECK(what << ", final mesh:\n" << report.summary());
+  // One state machine: every change of state the engine made is a sequence of the table's events.
+  const CutTable& table = default_cut_table();
+  for (const auto& [keys, n] : cutter.totals().state_transitions) {
+    const MachineState from = MachineState::from_key(keys.first), to = MachineState::from_key(keys.second);
+    CHECK_MESSAGE(reaches(table, from, to), what << ": " << table.label(from.topology, from.complete)
+                                                 << " -> " << table.label(to.topology, to.complete) << " ("
+                                                 << keys.first << " -> " << keys.second << ")");
+  }
   ++stats.trajectories;
   for (const auto& [name, n] : cutter.totals().transitions) stats.transitions += n;
   stats.edges_cut += cutter.totals().edges_cut;
