@@ -1,0 +1,357 @@
+// Recursive continuation (paper section 6): where the basic machine cannot go on, a cut's
+// sub-tetrahedra become units one level deeper; whether a crossing belongs to a cut already made;
+// the seals between the parts of a stroke promoted and not yet promoted.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <set>
+#include <stdexcept>
+
+#include "cutting/cut_engine_internal.hpp"
+#include "mesh/closest_point.hpp"
+#include "mesh/validate.hpp"
+
+namespace scalpel {
+
+using namespace cut_internal;
+
+bool CutEngine::near_surface(const Vec3& old_point, const Vec3& old_normal, const Vec3& point,
+                             const Vec3& normal, double size, double angle_deg, double distance) const {
+  const double on = old_normal.norm(), nn = normal.norm();
+  if (on == 0.0 || nn == 0.0) return (point - old_point).norm() <= distance * size;
+  const double cos_angle = std::abs(old_normal.dot(normal)) / (on * nn);
+  return cos_angle >= std::cos(angle_deg * std::numbers::pi / 180.0) &&
+         std::abs(old_normal.dot(point - old_point)) / on <= distance * size;
+}
+
+bool CutEngine::same_cut(const Vec3& old_point, const Vec3& old_normal, const Vec3& point, const Vec3& normal,
+                         double size, std::uint64_t stroke) const {
+  // An earlier stroke's cut is crossed, not continued, unless the blade follows it closely (a
+  // re-cut along the same path): the wide tolerances, meant for the blade's own tremble, would
+  // take a second incision for the first near the line where the two meet.
+  if (stroke != stroke_)
+    return near_surface(old_point, old_normal, point, normal, size, options_.earlier_cut_angle_deg,
+                        options_.earlier_cut_distance);
+  return near_surface(old_point, old_normal, point, normal, size, options_.same_cut_angle_deg,
+                      options_.same_cut_distance);
+}
+
+// The swept surface's normal at a face: its mid node's last sample, else one of its cut edges'.
+Vec3 CutEngine::face_sheet_normal(const Key3& k) const {
+  const std::uint32_t mid = face_node(mid_nodes_, k);
+  if (mid != kInvalidIndex && cut_nodes_[mid].sheet_normal.squaredNorm() > 0)
+    return cut_nodes_[mid].sheet_normal;
+  for (const auto& [a, b] : {std::pair{k[0], k[1]}, std::pair{k[1], k[2]}, std::pair{k[0], k[2]}}) {
+    const std::uint32_t e = edge_node(a, b);
+    if (e != kInvalidIndex && cut_nodes_[e].sheet_normal.squaredNorm() > 0) return cut_nodes_[e].sheet_normal;
+  }
+  return Vec3::Zero();
+}
+
+std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, const BladePose& pose) const {
+  std::map<std::uint32_t, bool> out;
+  const auto& x = coarse_.positions();
+  auto point_of = [&](const CutNode& n) {
+    Vec3 p = Vec3::Zero();
+    for (int i = 0; i < (n.kind == CutNode::Kind::Edge ? 2 : 3); ++i)
+      p += n.bary[i] * x[n.key[static_cast<size_t>(i)]];
+    return p;
+  };
+  // Whether a new cut at `point` in unit `c` extends the surface already cut there (the blade
+  // returning to a cut it left, along it: the basic machine goes on) rather than starting another.
+  auto extends = [&](const CoarseTet& c, const Vec3& point, const Vec3& normal, double size) {
+    return c.any_cut_node([&](std::uint32_t id) {
+      const CutNode& n = cut_nodes_[id];
+      return n.kind != CutNode::Kind::Entry &&
+             same_cut(point_of(n), n.sheet_normal, point, normal, size, n.stroke);
+    });
+  };
+  // Every cut unit around `key`; or, for a new cut there, those whose subdivision is final and that
+  // it does not extend.
+  auto add_units = [&](const Key3& key, bool only_complete, const Vec3& point = Vec3::Zero(),
+                       const Vec3& normal = Vec3::Zero(), double size = 0.0) {
+    for (const std::uint32_t t : coarse_tets_around(key)) {
+      const auto it = cut_tets_.find(t);
+      if (it == cut_tets_.end()) continue;
+      if (!only_complete || (it->second.complete && !extends(it->second, point, normal, size)))
+        out[t] |= !only_complete;
+    }
+  };
+  const Vec3 blade = pose.tip - pose.back;
+  auto face_size = [&](const Key3& k) {
+    return std::max({(x[k[0]] - x[k[1]]).norm(), (x[k[1]] - x[k[2]]).norm(), (x[k[0]] - x[k[2]]).norm()});
+  };
+  // A new cut on a face: a second surface there if the face is cut already, otherwise new only
+  // to units whose subdivision is final.
+  auto face_event = [&](const Key3& k, const Vec3& point, const Vec3& normal) {
+    if (sealed(k)) return;
+    const std::uint32_t mid = face_node(mid_nodes_, k);
+    if (mid == kInvalidIndex) {
+      add_units(k, true, point, normal, face_size(k));
+      return;
+    }
+    const CutNode& m = cut_nodes_[mid];
+    if (same_cut(point_of(m), face_sheet_normal(k), point, normal, face_size(k), m.stroke)) return;
+    add_units(k, !m.opened);  // an opened face cannot take a second surface at any level
+  };
+
+  for (const EdgeCut& e : sweep_result_.edges) {
+    if (!e.forward) continue;  // backward crossings cut nothing (Eq. 1)
+    const Key3 k = edge_key(e.a, e.b);
+    if (sealed(k) || along_former_cut(e, prev, pose)) continue;
+    const std::uint32_t id = edge_node(e.a, e.b);
+    if (id == kInvalidIndex) {
+      add_units(k, true, e.point, swept_normal(prev, pose, e.s), (x[e.a] - x[e.b]).norm());
+      continue;
+    }
+    const CutNode& n = cut_nodes_[id];
+    if (n.registered) continue;  // Fig. 9: the crossing takes the registered node's place
+    if (!same_cut(point_of(n), n.sheet_normal, e.point, swept_normal(prev, pose, e.s),
+                  (x[e.a] - x[e.b]).norm(), n.stroke))
+      add_units(k, false);
+  }
+  for (const FacePierce& p : sweep_result_.pierces) {
+    const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
+    if (face_node(entry_nodes_, k) != kInvalidIndex) continue;  // the tip's own way back (§5.1)
+    const Vec3 dir = (1.0 - p.u) * (prev.tip - prev.back) + p.u * blade;
+    face_event(k, p.point, dir.cross(pose.tip - prev.tip));
+  }
+  for (const FaceCrossing& c : sweep_result_.crossings)
+    face_event(sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]), c.point, swept_normal(prev, pose, c.s));
+  return out;
+}
+
+std::vector<std::uint32_t> CutEngine::cut_component(std::uint32_t t) const {
+  std::vector<std::uint32_t> out{t};
+  std::set<std::uint32_t> seen{t}, nodes_seen;
+  for (std::size_t i = 0; i < out.size(); ++i)
+    cut_tets_.at(out[i]).any_cut_node([&](std::uint32_t id) {
+      if (nodes_seen.insert(id).second)
+        for (const std::uint32_t u : coarse_tets_around(cut_nodes_[id].key))
+          if (cut_tets_.count(u) && seen.insert(u).second) out.push_back(u);
+      return false;
+    });
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+NodeId CutEngine::unit_node(NodeId live) {
+  while (!coarse_.node_slot_alive(live.index)) (void)coarse_.add_node(Vec3::Zero());
+  const NodeId u = coarse_.node_handle(live.index);
+  coarse_.set_rest(u, mesh_.rest(live));
+  coarse_.set_position(u, mesh_.position(live));
+  return u;
+}
+
+// §6: a component of cut units is subdivided completely to the end state of its last valid state
+// (its current subdivision, which the blade has left), and its sub-tetrahedra, already live, become
+// units one level deeper. Its cut nodes become their corners, the interconnection nodes the next
+// level's cuts start from. The live mesh does not change; only the engine's units do.
+// Only the part of a component the blade has left is promoted: units it has not touched for
+// CutOptions::finished_after_steps, or since place(). Within a stroke that is the cut behind the
+// blade, which the stroke reaches again when it curls back or crosses itself; the units around the
+// blade keep the basic machine (§5: tremble, reversals). Between the two parts the unit mesh is not
+// conforming: the cut nodes they share are pinned (they keep their place and their copies) and the
+// faces and edges between them sealed (a crossing there is ignored) until the rest is promoted too.
+// A component at the depth bound keeps its one-level subdivision: the fallback, which stays valid
+// but cannot follow a second surface exactly.
+bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std::uint32_t>& refused,
+                        CutStepStats& stats) {
+  bool any = false;
+  auto left_behind = [&](std::uint32_t t) {
+    return last_touch_[t] + options_.finished_after_steps < step_count_ || last_touch_[t] < stroke_start_;
+  };
+  // A unit where the cut ends (a cut node in it has not opened): promoted, those nodes could not
+  // open any more, and a new cut that starts there (Fig. 12) would stay joined to the old one. The
+  // basic machine continues such a unit, unless the new cut crosses the old one there or another
+  // unit of its component is promoted.
+  auto at_boundary = [&](std::uint32_t t) {
+    return cut_tets_.at(t).any_cut_node(
+        [&](std::uint32_t id) { return opens(id) && !cut_nodes_[id].opened; });
+  };
+  for (const auto& [seed, crosses] : units) {
+    if (refused.count(seed) || !cut_tets_.count(seed) || (!crosses && at_boundary(seed))) continue;
+    const std::vector<std::uint32_t> comp = cut_component(seed);
+    std::vector<std::uint32_t> part, rest;
+    for (const std::uint32_t t : comp) (left_behind(t) ? part : rest).push_back(t);
+    bool too_deep = false;
+    for (const std::uint32_t t : part) too_deep |= level_[t] >= options_.max_recursion_depth;
+    if (!left_behind(seed) || too_deep) {
+      refused.insert(comp.begin(), comp.end());
+      if (left_behind(seed) && too_deep) ++stats.recursion_fallbacks;
+      continue;
+    }
+    // Cut nodes of the promoted part; those the rest shares stay cut nodes there, pinned.
+    std::set<std::uint32_t> ids, kept;
+    for (const std::uint32_t t : part)
+      cut_tets_.at(t).any_cut_node([&](std::uint32_t id) {
+        ids.insert(id);
+        return false;
+      });
+    for (const std::uint32_t t : rest)
+      cut_tets_.at(t).any_cut_node([&](std::uint32_t id) {
+        if (ids.count(id)) {
+          kept.insert(id);
+          cut_nodes_[id].pinned = true;
+        }
+        return false;
+      });
+    for (const std::uint32_t t : part) seal(t, rest);
+    // The crack faces stay part of the cut surface.
+    for (const CrackFace& f : crack_faces(part))
+      retired_crack_faces_.push_back(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
+    for (const std::uint32_t t : part) {
+      const CoarseTet c = std::move(cut_tets_.at(t));
+      cut_tets_.erase(t);
+      const TetId unit = coarse_.tet_handle(t);
+      const int region = coarse_.region(unit);
+      const std::uint8_t level = static_cast<std::uint8_t>(level_[t] + 1);
+      sweep_->on_tet_removed(t);
+      coarse_.remove_tet(unit);
+      for (std::size_t s = 0; s < c.live.size(); ++s) {
+        std::array<NodeId, 4> nodes{};
+        for (int i = 0; i < 4; ++i)
+          nodes[static_cast<size_t>(i)] = unit_node(c.real[s][static_cast<size_t>(i)]);
+        const TetId child = coarse_.add_tet(nodes, region);
+        if (unit_live_.size() <= child.index) {
+          unit_live_.resize(child.index + 1, kInvalidIndex);
+          level_.resize(child.index + 1, 0);
+          last_touch_.resize(child.index + 1, 0);
+        }
+        unit_live_[child.index] = c.live[s].index;
+        level_[child.index] = level;
+        last_touch_[child.index] = 0;
+        live_to_coarse_[c.live[s].index] = child.index;
+        sweep_->on_tet_added(child.index);
+      }
+      stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
+    }
+    // A mid node the blade never crossed takes its face's swept-surface normal from a cut edge
+    // while the face's cut data is still there: along_former_cut() tells surfaces apart by it.
+    for (const std::uint32_t id : ids) {
+      CutNode& n = cut_nodes_[id];
+      if (!kept.count(id) && n.kind == CutNode::Kind::Mid && n.sheet_normal.squaredNorm() == 0)
+        n.sheet_normal = face_sheet_normal(n.key);
+    }
+    for (const std::uint32_t id : ids) {
+      if (kept.count(id)) continue;
+      CutNode& n = cut_nodes_[id];
+      for (const NodeId c : n.copies) former_[c.index] = id;
+      auto& map = n.kind == CutNode::Kind::Edge  ? edge_nodes_
+                  : n.kind == CutNode::Kind::Mid ? mid_nodes_
+                                                 : entry_nodes_;
+      const auto it = map.find(n.key);
+      if (it != map.end() && it->second == id) map.erase(it);
+      if (n.kind == CutNode::Kind::Mid) crossing_faces_.erase(n.key);
+      n.crossing = false;
+    }
+    // Seals whose unit has been promoted now are lifted.
+    std::erase_if(seals_, [&](const auto& s) { return coarse_tets_around(s.second).empty(); });
+    ++stats.recursions;
+    if (!rest.empty()) ++stats.stroke_recursions;
+    stats.promoted_tets += part.size();
+    refused.insert(rest.begin(), rest.end());
+    any = true;
+  }
+  return any;
+}
+
+// Seals the faces and edges of unit `t` (about to be promoted) that a unit of `rest` holds whole
+// while `t`'s subdivision splits them: those holding cut data. Each of their pieces in `t`'s
+// subdivision is sealed with them.
+void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
+  const CoarseTet& c = cut_tets_.at(t);
+  const auto& v = coarse_.tet_vertex_indices(t);
+  auto in = [](const Key3& outer, std::uint32_t slot) {
+    return slot == kInvalidIndex || std::find(outer.begin(), outer.end(), slot) != outer.end();
+  };
+  // Whether abstract node g lies on the face or edge `outer`.
+  auto lies_on = [&](GNode g, const Key3& outer) {
+    if (!(g & kCutBit)) return in(outer, static_cast<std::uint32_t>(g));
+    const Key3& k = cut_nodes_[static_cast<size_t>(g & ~kCutBit)].key;
+    return in(outer, k[0]) && in(outer, k[1]) && in(outer, k[2]);
+  };
+  auto held_by_rest = [&](const Key3& key) {
+    for (const std::uint32_t u : coarse_tets_around(key))
+      if (std::find(rest.begin(), rest.end(), u) != rest.end()) return true;
+    return false;
+  };
+  auto seal_edges = [&](std::uint32_t a, std::uint32_t b, std::uint32_t d, const Key3& outer) {
+    add_seal(edge_key(a, b), outer);
+    add_seal(edge_key(b, d), outer);
+    add_seal(edge_key(a, d), outer);
+  };
+  for (int f = 0; f < 4; ++f) {
+    const auto fv = face_vertex_indices(coarse_, t, f);
+    const Key3 face = sorted_key(fv[0], fv[1], fv[2]);
+    const bool cut = face_node(mid_nodes_, face) != kInvalidIndex ||
+                     face_node(entry_nodes_, face) != kInvalidIndex || face_has_edge_node(face);
+    if (!cut || !held_by_rest(face)) continue;
+    add_seal(face, face);
+    seal_edges(face[0], face[1], face[2], face);
+    for (std::size_t s = 0; s < c.subs.size(); ++s)
+      for (int j = 0; j < 4; ++j) {
+        const auto g = face_without(c.subs[s], j);
+        if (!lies_on(g[0], face) || !lies_on(g[1], face) || !lies_on(g[2], face)) continue;
+        const auto r = face_without(c.real[s], j);
+        add_seal(sorted_key(r[0].index, r[1].index, r[2].index), face);
+        seal_edges(r[0].index, r[1].index, r[2].index, face);
+      }
+  }
+  for (const auto& ev : kEdgeVertices) {
+    const Key3 edge = edge_key(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]);
+    if (edge_node(edge[0], edge[1]) == kInvalidIndex || !held_by_rest(edge)) continue;
+    add_seal(edge, edge);
+    for (std::size_t s = 0; s < c.subs.size(); ++s)
+      for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j)
+          if (lies_on(c.subs[s][static_cast<size_t>(i)], edge) &&
+              lies_on(c.subs[s][static_cast<size_t>(j)], edge))
+            add_seal(
+                edge_key(c.real[s][static_cast<size_t>(i)].index, c.real[s][static_cast<size_t>(j)].index),
+                edge);
+  }
+}
+
+bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const BladePose& pose) const {
+  // Both ends on one earlier cut surface where it has opened: the edge lies in it (or across a
+  // sliver beside it), and a blade running along that surface would shave off slivers. Ends on two
+  // surfaces (the edge runs from one earlier cut to another where they meet) do not count: a new
+  // cut parallel to one of them and near it must still split the edge.
+  const auto a = former_.find(e.a), b = former_.find(e.b);
+  if (a == former_.end() || b == former_.end()) return false;
+  const CutNode &na = cut_nodes_[a->second], &nb = cut_nodes_[b->second];
+  if (!na.opened || !nb.opened) return false;
+  const Vec3 &ma = na.sheet_normal, &mb = nb.sheet_normal;
+  if (ma.squaredNorm() == 0 || mb.squaredNorm() == 0) return false;  // surface unknown
+  const auto& x = coarse_.positions();
+  const double size = (x[e.a] - x[e.b]).norm();
+  const double angle = options_.same_cut_angle_deg, distance = options_.same_cut_distance;
+  if (!near_surface(x[e.a], ma, x[e.b], mb, size, angle, distance) ||
+      !near_surface(x[e.b], mb, x[e.a], ma, size, angle, distance))
+    return false;
+  // Along the surface, not across it at a small angle (CutOptions::along_cut_angle_deg).
+  const Vec3 normal = swept_normal(prev, pose, e.s);
+  const double along = options_.along_cut_angle_deg;
+  return near_surface(x[e.a], ma, e.point, normal, size, along, distance) ||
+         near_surface(x[e.b], mb, e.point, normal, size, along, distance);
+}
+
+void CutEngine::add_seal(const Key3& key, const Key3& outer) {
+  seals_.emplace(key, outer);
+}
+
+bool CutEngine::has_seal(const Key3& key) const {
+  const auto it = seals_.lower_bound({key, Key3{}});
+  return it != seals_.end() && it->first == key;
+}
+
+bool CutEngine::sealed(const Key3& key) const {
+  for (auto it = seals_.lower_bound({key, Key3{}}); it != seals_.end() && it->first == key; ++it)
+    if (!coarse_tets_around(it->second).empty()) return true;
+  return false;
+}
+
+}  // namespace scalpel

@@ -1,0 +1,278 @@
+// Cut nodes (paper sections 4.1, 5 and 5.2): the edge, mid and entry nodes of the cut, where they
+// sit, how mid nodes slide with the blade and settle at the average of their samples, and how
+// tremble takes them out again (section 5.1).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <set>
+#include <stdexcept>
+
+#include "cutting/cut_engine_internal.hpp"
+#include "mesh/closest_point.hpp"
+#include "mesh/validate.hpp"
+
+namespace scalpel {
+
+using namespace cut_internal;
+
+std::uint32_t CutEngine::edge_node(std::uint32_t a, std::uint32_t b) const {
+  const auto it = edge_nodes_.find(edge_key(a, b));
+  return it == edge_nodes_.end() ? kInvalidIndex : it->second;
+}
+
+std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, const Key3& key) const {
+  const auto it = map.find(key);
+  return it == map.end() ? kInvalidIndex : it->second;
+}
+
+// Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the
+// cut is made in the current configuration and carried to the rest one by the same weights). The
+// rest position is the weighted one. In the current configuration a copy goes where the tissue has
+// put the material point of its new rest position: the piecewise-linear map of the live elements
+// around it. So it keeps the displacement the tissue gave it, and sliding along the face leaves the
+// field the elements interpolate as it was, up to re-interpolation. The coarse face's corners are no
+// measure of that map once a crack or a strained element lies between them; they move only a copy
+// no element holds yet.
+void CutEngine::place_cut_node(std::uint32_t id) {
+  CutNode& n = cut_nodes_[id];
+  const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
+  Vec3 r = Vec3::Zero(), dx_face = Vec3::Zero();
+  for (int i = 0; i < count; ++i) {
+    const NodeId p = mesh_.node_handle(n.key[static_cast<size_t>(i)]);
+    r += n.bary[i] * mesh_.rest(p);
+    dx_face += (n.bary[i] - n.placed_bary[i]) * mesh_.position(p);
+  }
+  for (const NodeId c : n.copies) {
+    const std::optional<Vec3> x = current_position_of(c, r);
+    mesh_.set_rest(c, r);
+    mesh_.set_position(c, x ? *x : Vec3(mesh_.position(c) + dx_face));
+    changes_.moved_nodes.push_back(c);
+    changes_.touched_nodes.push_back(c.index);
+  }
+  n.placed_bary = n.bary;
+}
+
+// Where the live elements around real node c put rest point `rest` now: the element of c's star
+// that holds it in the rest configuration (the one it is deepest in), interpolated at its current
+// corners. None if c has no element of positive rest volume, or the point lies far outside them all.
+std::optional<Vec3> CutEngine::current_position_of(NodeId c, const Vec3& rest) const {
+  const auto& rp = mesh_.rest_positions();
+  const auto& xp = mesh_.positions();
+  double deepest = -0.5;  // further outside than that: the star is no measure
+  std::optional<Vec3> out;
+  for (const std::uint32_t t : mesh_.node_tets(c)) {
+    const auto& v = mesh_.tet_vertex_indices(t);
+    Eigen::Matrix3d dm;
+    for (int k = 0; k < 3; ++k) dm.col(k) = rp[v[static_cast<size_t>(k + 1)]] - rp[v[0]];
+    if (!(dm.determinant() > 0)) continue;
+    const Vec3 w = dm.inverse() * (rest - rp[v[0]]);
+    const double lowest = std::min({1.0 - w.sum(), w[0], w[1], w[2]});
+    if (!(lowest > deepest)) continue;
+    deepest = lowest;
+    out = (1.0 - w.sum()) * xp[v[0]] + w[0] * xp[v[1]] + w[1] * xp[v[2]] + w[2] * xp[v[3]];
+  }
+  return out;
+}
+
+// Where a mid node stands (§4.1, §5.2): on the blade while the blade crosses the face; afterwards
+// at the average of its sampled positions; a face the swept surface crossed between two samples
+// has none, and takes the middle of its trace (the average of the trace's end points on the face).
+void CutEngine::update_face_position(std::uint32_t id) {
+  CutNode& n = cut_nodes_[id];
+  if (n.opened || n.pinned) return;  // the crack has opened here, or promoted units hold it
+  const Key3& k = n.key;
+  const Vec3 pa = coarse_.positions()[k[0]], pb = coarse_.positions()[k[1]], pc = coarse_.positions()[k[2]];
+  Vec3 w;
+  if (n.crossing) {
+    w = n.bary;
+  } else if (n.samples > 0) {
+    w = n.sample_sum / n.samples;
+  } else {
+    // Trace end points known on this face: its cut edges and its entry node.
+    std::vector<Vec3> ends;
+    const std::array<std::array<int, 2>, 3> edges{{{0, 1}, {1, 2}, {0, 2}}};
+    std::uint32_t single_edge = kInvalidIndex;
+    for (const auto& e : edges) {
+      const std::uint32_t en = edge_node(k[static_cast<size_t>(e[0])], k[static_cast<size_t>(e[1])]);
+      if (en == kInvalidIndex) continue;
+      Vec3 b = Vec3::Zero();
+      b[e[0]] = cut_nodes_[en].bary[0];  // key order of an edge is ascending, as in the face key
+      b[e[1]] = cut_nodes_[en].bary[1];
+      ends.push_back(b);
+      single_edge = en;
+    }
+    const std::uint32_t entry = face_node(entry_nodes_, k);
+    if (entry != kInvalidIndex) ends.push_back(cut_nodes_[entry].bary);
+    if (ends.size() >= 2) {
+      w = Vec3::Zero();
+      for (const auto& b : ends) w += b / static_cast<double>(ends.size());
+    } else if (single_edge != kInvalidIndex) {
+      // One cut edge: follow the swept surface's plane from the cut point across the face.
+      const Vec3 start = ends[0];
+      const Vec3 x = start[0] * pa + start[1] * pb + start[2] * pc;
+      const Vec3& normal = cut_nodes_[single_edge].sheet_normal;
+      const std::array<Vec3, 3> p{pa, pb, pc};
+      w = (start + Vec3::Constant(1.0 / 3.0)) / 2.0;  // if the plane misses the face
+      for (int i = 0; i < 3 && normal.squaredNorm() > 0; ++i) {
+        const int j = (i + 1) % 3;
+        if (start[i] > 0 && start[j] > 0) continue;  // the edge that was cut
+        const double di = normal.dot(p[static_cast<size_t>(i)] - x),
+                     dj = normal.dot(p[static_cast<size_t>(j)] - x);
+        if ((di < 0) == (dj < 0) || di == dj) continue;
+        const double t = di / (di - dj);
+        Vec3 end = Vec3::Zero();
+        end[i] = 1.0 - t;
+        end[j] = t;
+        w = (start + end) / 2.0;
+        break;
+      }
+    } else if (!ends.empty()) {
+      w = ends[0];
+    } else {
+      w = Vec3::Constant(1.0 / 3.0);
+    }
+  }
+  w = clamp_interior(w, options_.min_face_bary);
+
+  // With an entry node on the face, the mid node lies in one of the three parts the entry node
+  // cuts the face into; keep it clearly inside that part.
+  const std::uint32_t entry = face_node(entry_nodes_, k);
+  if (entry != kInvalidIndex) {
+    const Vec3 e = cut_nodes_[entry].bary;
+    int best = -1;
+    double best_min = -1e300;
+    Vec3 best_local;
+    for (int j = 0; j < 3; ++j) {
+      // Part j: corner j replaced by the entry node. Local weights (on e, then the two corners).
+      const double alpha = w[j] / e[j];
+      Vec3 local(alpha, 0, 0);
+      local[1] = w[(j + 1) % 3] - alpha * e[(j + 1) % 3];
+      local[2] = w[(j + 2) % 3] - alpha * e[(j + 2) % 3];
+      if (local.minCoeff() > best_min) {
+        best_min = local.minCoeff();
+        best = j;
+        best_local = local;
+      }
+    }
+    best_local = clamp_interior(best_local, options_.min_face_bary);
+    w = best_local[0] * e;
+    w[(best + 1) % 3] += best_local[1];
+    w[(best + 2) % 3] += best_local[2];
+    n.entry_subtriangle = best;
+  }
+  n.bary = w;
+  place_cut_node(id);
+}
+
+bool CutEngine::face_has_edge_node(const Key3& k) const {
+  return edge_node(k[0], k[1]) != kInvalidIndex || edge_node(k[1], k[2]) != kInvalidIndex ||
+         edge_node(k[0], k[2]) != kInvalidIndex;
+}
+
+void CutEngine::undo_face(const Key3& k, bool mid) {
+  const auto entry = entry_nodes_.find(k);
+  if (entry != entry_nodes_.end()) {
+    undone_.push_back(entry->second);
+    entry_nodes_.erase(entry);
+  }
+  const std::uint32_t m = face_node(mid_nodes_, k);
+  if (m == kInvalidIndex) return;
+  if (mid) {
+    undone_.push_back(m);
+    mid_nodes_.erase(k);
+    crossing_faces_.erase(k);
+  } else {
+    cut_nodes_[m].entry_subtriangle = -1;
+    update_face_position(m);
+  }
+}
+
+// Removes the real nodes of undone cut nodes, which no element uses any more after the rebuild;
+// returns how many.
+std::size_t CutEngine::remove_undone_nodes() {
+  if (undone_.empty()) return 0;
+  std::vector<NodeId> dead;
+  for (const std::uint32_t id : undone_) {
+    CutNode& n = cut_nodes_[id];
+    for (const NodeId c : n.copies) {
+      if (!mesh_.node_tets(c).empty())
+        throw std::logic_error("CutEngine: an undone cut node is still in use");
+      dead.push_back(c);
+    }
+    n.copies.clear();
+    n.group_of.clear();
+  }
+  undone_.clear();
+  return remove_nodes(dead);
+}
+
+// Removes real nodes no element uses. One made in this step leaves the step's changes; the tissue
+// model learns of the others by the removed elements that held them.
+std::size_t CutEngine::remove_nodes(const std::vector<NodeId>& dead) {
+  if (dead.empty()) return 0;
+  auto is_dead = [&](NodeId x) { return std::find(dead.begin(), dead.end(), x) != dead.end(); };
+  for (std::size_t i = changes_.added_nodes.size(); i-- > 0;)
+    if (is_dead(changes_.added_nodes[i])) {
+      changes_.added_nodes.erase(changes_.added_nodes.begin() + static_cast<std::ptrdiff_t>(i));
+      changes_.added_node_parents.erase(changes_.added_node_parents.begin() + static_cast<std::ptrdiff_t>(i));
+    }
+  std::erase_if(changes_.moved_nodes, is_dead);
+  for (const NodeId x : dead) mesh_.remove_node(x);
+  return dead.size();
+}
+
+// A new cut node with one real copy, interpolated from its coarse nodes with weights `bary`.
+std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, const Vec3& bary) {
+  CutNode n;
+  n.kind = kind;
+  n.key = key;
+  n.bary = bary;
+  n.copies.push_back(add_node(key_parents(mesh_, key, bary)));
+  n.placed_bary = bary;  // the copy is interpolated at `bary` by add_node
+  n.stroke = stroke_;
+  cut_nodes_.push_back(std::move(n));
+  return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
+}
+
+NodeId CutEngine::add_node(const NodeParents& parents) {
+  const NodeId n = mesh_.add_interpolated_node(parents);
+  changes_.added_nodes.push_back(n);
+  changes_.added_node_parents.push_back(parents);
+  return n;
+}
+
+std::vector<Vec3> CutEngine::cut_points() const {
+  std::vector<Vec3> out;
+  for (const CutNode& n : cut_nodes_)
+    if (n.kind != CutNode::Kind::Mid && !n.copies.empty()) out.push_back(mesh_.rest(n.copies[0]));
+  return out;
+}
+
+std::string CutEngine::check_faithful(double tolerance) const {
+  std::string out;
+  for (std::size_t id = 0; id < cut_nodes_.size(); ++id) {
+    const CutNode& n = cut_nodes_[id];
+    const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
+    Vec3 expect = Vec3::Zero();
+    double sum = 0.0, lo = 1.0;
+    for (int i = 0; i < count; ++i) {
+      expect += n.bary[i] * mesh_.rest(mesh_.node_handle(n.key[static_cast<size_t>(i)]));
+      sum += n.bary[i];
+      lo = std::min(lo, n.bary[i]);
+    }
+    const bool weights_ok = lo > 0.0 && std::abs(sum - 1.0) <= 1e-12 && (count == 3 || n.bary[2] == 0.0);
+    for (const NodeId c : n.copies) {
+      const double d = (mesh_.rest(c) - expect).norm();
+      if (weights_ok && d <= tolerance) continue;
+      out += "cut node " + std::to_string(id) + " (node " + std::to_string(c.index) + "): off its parent " +
+             (count == 2 ? "edge" : "face") + " by " + std::to_string(d) + " m, weights (" +
+             std::to_string(n.bary[0]) + ", " + std::to_string(n.bary[1]) + ", " + std::to_string(n.bary[2]) +
+             ")\n";
+    }
+  }
+  return out;
+}
+
+}  // namespace scalpel
