@@ -268,6 +268,9 @@ CutStepStats CutEngine::follow_tissue() {
   return sweep_to(pose, false);
 }
 
+// The section-3 pipeline: collision (with the recursive continuation where the sweep reaches a
+// cut it cannot continue), the events in sweep order, the tremble at faces, the face nodes placed,
+// and the affected units subdivided again.
 CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
   CutStepStats stats;
   changes_.clear();
@@ -277,6 +280,31 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
     return stats;
   }
   const BladePose prev = blade_;
+  collide(prev, pose, tool_moved, stats);
+  const std::size_t nodes_before = mesh_.node_count();
+  StepEvents ev;
+  edge_events(prev, pose, ev, stats);
+  pierce_events(ev, stats);
+  crossing_events(prev, pose, ev, stats);
+  tremble_at_faces(ev, stats);
+  place_face_nodes(ev);
+
+  stats.sealed_events = ev.sealed_now.size();
+  std::size_t removed = commit(ev.affected, ev.left_faces_tets, stats);
+  removed += remove_undone_nodes();
+  stats.nodes_created = mesh_.node_count() + removed - nodes_before;
+  totals_.add(stats);
+
+#ifdef SCALPEL_VALIDATE
+  // Invariants 1-4 wherever this step changed the mesh (docs/invariants.md).
+  const auto report = validate_local(mesh_, changes_.touched_nodes, {.reference_volume = coarse_volume_});
+  if (!report.ok())
+    throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
+#endif
+  return stats;
+}
+
+void CutEngine::collide(const BladePose& prev, const BladePose& pose, bool tool_moved, CutStepStats& stats) {
   sweep_->sweep(prev, pose, sweep_result_);
   if (sweep_result_.tets.empty()) {
     if (tool_moved) in_contact_ = false;  // the tissue moving off the blade does not end a stroke
@@ -303,32 +331,29 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
   blade_ = pose;
   for (const std::uint32_t t : sweep_result_.tets) last_touch_[t] = step_count_;
   stats.tets_touched = sweep_result_.tets.size();
+}
 
-  std::set<Key3> changed_faces;      // faces whose topology (mid or entry node) is new
-  std::set<Key3> positioned_faces;   // faces whose mid node must be placed again
-  std::set<std::uint32_t> affected;  // coarse tetrahedra to subdivide again
-  const std::size_t nodes_before = mesh_.node_count();
+bool CutEngine::skip_sealed(const Key3& k, StepEvents& ev) const {
+  if (!sealed(k)) return false;
+  ev.sealed_now.insert(k);
+  return true;
+}
 
-  auto face_bary = [&](const Key3& k, const Vec3& point) {
-    const auto& x = coarse_.positions();
-    return barycentric(point, x[k[0]], x[k[1]], x[k[2]]);
-  };
+Vec3 CutEngine::face_bary(const Key3& k, const Vec3& point) const {
+  const auto& x = coarse_.positions();
+  return barycentric(point, x[k[0]], x[k[1]], x[k[2]]);
+}
 
-  // Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
+// Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
+void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEvents& ev,
+                            CutStepStats& stats) {
   std::vector<const EdgeCut*> edges;
   for (const auto& e : sweep_result_.edges) edges.push_back(&e);
   std::stable_sort(edges.begin(), edges.end(),
                    [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
-  std::vector<Key3> new_edges;
-  std::set<Key3> sealed_now;               // sealed faces and edges the blade crossed, counted once
-  auto skip_sealed = [&](const Key3& k) {  // a crossing of a sealed face or edge is ignored (§6)
-    if (!sealed(k)) return false;
-    sealed_now.insert(k);
-    return true;
-  };
   for (const EdgeCut* e : edges) {
     const Key3 k = edge_key(e->a, e->b);
-    if (skip_sealed(k)) continue;
+    if (skip_sealed(k, ev)) continue;
     if (along_former_cut(*e, prev, pose)) {
       ++stats.recrossed_edges;
       continue;
@@ -346,7 +371,7 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
         n.registered = false;
         n.bary = Vec3(1.0 - t, t, 0.0);
         place_cut_node(known->second);
-        for (const std::uint32_t c : coarse_tets_around(k)) affected.insert(c);
+        for (const std::uint32_t c : coarse_tets_around(k)) ev.affected.insert(c);
         ++stats.replaced_crossings;
         ++stats.edges_cut;
       } else {
@@ -361,10 +386,12 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
     cut_nodes_[id].sheet_normal = swept_normal(prev, pose, e->s);
     cut_nodes_[id].registered = !e->forward;
     edge_nodes_.emplace(k, id);
-    new_edges.push_back(k);
+    ev.new_edges.push_back(k);
     ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
+}
 
+void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {
   // Tip pierces: entry nodes (§4.1). A pierce of a face that holds an entry node from an earlier
   // step is the tip leaving by the face it came in by (§5.1, handled below).
   // Per pierced face: the tetrahedron the tip goes into (kInvalidIndex: out of the mesh) and the
@@ -375,15 +402,14 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
         pierced.try_emplace(sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), kInvalidIndex, p.point);
     if (p.entering) it->second.first = p.tet;
   }
-  std::set<Key3> tip_left;
   for (const auto& [k, pierce] : pierced) {
-    if (skip_sealed(k)) continue;
+    if (skip_sealed(k, ev)) continue;
     const auto [into, point] = pierce;
     const auto known = entry_nodes_.find(k);
     if (known != entry_nodes_.end()) {
       // Back the way it came: the tip leaves by the face it entered. The same way again is the face
       // moving with the tissue past a tip that already went through it: nothing happens.
-      if (cut_nodes_[known->second].into != into) tip_left.insert(k);
+      if (cut_nodes_[known->second].into != into) ev.tip_left.insert(k);
       continue;
     }
     const std::uint32_t mid = face_node(mid_nodes_, k);
@@ -402,24 +428,26 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
     const std::uint32_t id = create_cut_node(CutNode::Kind::Entry, k, w);
     cut_nodes_[id].into = into;
     entry_nodes_.emplace(k, id);
-    changed_faces.insert(k);
-    positioned_faces.insert(k);
+    ev.changed_faces.insert(k);
+    ev.positioned_faces.insert(k);
     ++stats.face_pierces;
   }
+}
 
+void CutEngine::crossing_events(const BladePose& prev, const BladePose& pose, StepEvents& ev,
+                                CutStepStats& stats) {
   // Faces the blade crosses now: their mid node is the ENP and follows the blade.
-  std::set<Key3> crossing_now;
   for (const auto& c : sweep_result_.crossings) {
     const Key3 k = sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]);
-    if (skip_sealed(k)) continue;
-    if (!crossing_now.insert(k).second) continue;
+    if (skip_sealed(k, ev)) continue;
+    if (!ev.crossing_now.insert(k).second) continue;
     const Vec3 sample = face_bary(k, c.point);
     const Vec3 w = clamp_interior(sample, options_.min_face_bary);
     std::uint32_t id = face_node(mid_nodes_, k);
     if (id == kInvalidIndex) {
       id = create_cut_node(CutNode::Kind::Mid, k, w);
       mid_nodes_.emplace(k, id);
-      changed_faces.insert(k);
+      ev.changed_faces.insert(k);
     }
     CutNode& n = cut_nodes_[id];
     if (n.opened) {  // already cut through; a second pass is the recursive case (§6)
@@ -433,69 +461,58 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
     n.stroke = stroke_;
     n.sample_sum += sample;
     ++n.samples;
-    positioned_faces.insert(k);
+    ev.positioned_faces.insert(k);
   }
-  std::set<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
   for (const Key3& k : crossing_faces_) {
-    if (crossing_now.count(k)) continue;
+    if (ev.crossing_now.count(k)) continue;
     cut_nodes_[mid_nodes_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
-    positioned_faces.insert(k);
-    for (const std::uint32_t t : coarse_tets_around(k)) left_faces_tets.insert(t);
+    ev.positioned_faces.insert(k);
+    for (const std::uint32_t t : coarse_tets_around(k)) ev.left_faces_tets.insert(t);
   }
   crossing_faces_.clear();
-  for (const Key3& k : crossing_now)
+  for (const Key3& k : ev.crossing_now)
     if (cut_nodes_[mid_nodes_.at(k)].crossing) crossing_faces_.insert(k);
+}
 
+void CutEngine::tremble_at_faces(StepEvents& ev, CutStepStats& stats) {
   // Tremble at faces (§5.1, the dotted transitions O1->O0, O2->O1, A2->A1, B2->B1): a tip
   // that leaves by the face it entered before any edge of that face is cut undoes the face's
   // subdivision.
-  for (const Key3& k : tip_left) {
+  for (const Key3& k : ev.tip_left) {
     const std::uint32_t mid = face_node(mid_nodes_, k);
     if (face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].opened)) {
       ++stats.recrossed_faces;  // the tip crosses a cut face again: the recursive case (§6)
       continue;
     }
     undo_face(k, !crossing_faces_.count(k));
-    changed_faces.insert(k);
+    ev.changed_faces.insert(k);
     ++stats.undone_faces;
   }
+}
 
+void CutEngine::place_face_nodes(StepEvents& ev) {
   // Every face around a new cut edge carries the trace of the swept surface through it.
-  for (const Key3& k : new_edges) {
-    for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
+  for (const Key3& k : ev.new_edges) {
+    for (const std::uint32_t t : coarse_tets_around(k)) ev.affected.insert(t);
     for (const Key3& fk : faces_around_edge(k)) {
-      positioned_faces.insert(fk);
+      ev.positioned_faces.insert(fk);
       if (face_node(mid_nodes_, fk) == kInvalidIndex) {
         mid_nodes_.emplace(fk, create_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
-        changed_faces.insert(fk);
+        ev.changed_faces.insert(fk);
       }
     }
   }
 
   // Place mid nodes; a mid node that moves to another part of an entry-split face changes topology.
-  for (const Key3& k : positioned_faces) {
+  for (const Key3& k : ev.positioned_faces) {
     const std::uint32_t id = face_node(mid_nodes_, k);
     if (id == kInvalidIndex) continue;
     const int before = cut_nodes_[id].entry_subtriangle;
     update_face_position(id);
-    if (cut_nodes_[id].entry_subtriangle != before) changed_faces.insert(k);
+    if (cut_nodes_[id].entry_subtriangle != before) ev.changed_faces.insert(k);
   }
-  for (const Key3& k : changed_faces)
-    for (const std::uint32_t t : coarse_tets_around(k)) affected.insert(t);
-
-  stats.sealed_events = sealed_now.size();
-  std::size_t removed = commit(affected, left_faces_tets, stats);
-  removed += remove_undone_nodes();
-  stats.nodes_created = mesh_.node_count() + removed - nodes_before;
-  totals_.add(stats);
-
-#ifdef SCALPEL_VALIDATE
-  // Invariants 1-4 wherever this step changed the mesh (docs/invariants.md).
-  const auto report = validate_local(mesh_, changes_.touched_nodes, {.reference_volume = coarse_volume_});
-  if (!report.ok())
-    throw std::logic_error("CutEngine: mesh invariant broken after a cut step:\n" + report.summary());
-#endif
-  return stats;
+  for (const Key3& k : ev.changed_faces)
+    for (const std::uint32_t t : coarse_tets_around(k)) ev.affected.insert(t);
 }
 
 CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool complete) {

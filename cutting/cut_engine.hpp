@@ -245,6 +245,27 @@ class CutEngine {
   // Sweeps the blade from its last pose to `pose` and applies every event; `tool_moved`: a tool
   // sample (false: the tissue moved under the blade).
   CutStepStats sweep_to(const BladePose& pose, bool tool_moved);
+  // What the events of one step touch, for the stages after them.
+  struct StepEvents {
+    std::set<std::array<std::uint32_t, 3>> changed_faces;     // topology (mid or entry node) is new
+    std::set<std::array<std::uint32_t, 3>> positioned_faces;  // mid node to be placed again
+    std::set<std::uint32_t> affected;                         // coarse tetrahedra to subdivide again
+    std::vector<std::array<std::uint32_t, 3>> new_edges;      // edges that gained an edge node
+    std::set<std::array<std::uint32_t, 3>> sealed_now;        // sealed faces and edges crossed
+    std::set<std::array<std::uint32_t, 3>> tip_left;          // faces the tip left by the way it came
+    std::set<std::array<std::uint32_t, 3>> crossing_now;      // faces the blade crosses
+    std::set<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
+  };
+  // The stages of sweep_to(): the sweep and the continuation's passes, then each kind of event.
+  void collide(const BladePose& prev, const BladePose& pose, bool tool_moved, CutStepStats& stats);
+  void edge_events(const BladePose& prev, const BladePose& pose, StepEvents& ev, CutStepStats& stats);
+  void pierce_events(StepEvents& ev, CutStepStats& stats);
+  void crossing_events(const BladePose& prev, const BladePose& pose, StepEvents& ev, CutStepStats& stats);
+  void tremble_at_faces(StepEvents& ev, CutStepStats& stats);
+  void place_face_nodes(StepEvents& ev);
+  // A crossing of a sealed face or edge is ignored (§6); counted once per step.
+  bool skip_sealed(const std::array<std::uint32_t, 3>& key, StepEvents& ev) const;
+  Vec3 face_bary(const std::array<std::uint32_t, 3>& key, const Vec3& point) const;
   // Calls f(unit slot, p's barycentric weights in it) for the units whose corners enclose p
   // (positions as of the last refit(); a point on a shared face is in either), until f returns
   // true; returns whether it did.
