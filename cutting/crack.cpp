@@ -86,7 +86,28 @@ std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
 // gives each group a copy of the node. Groups are ordered by the smallest coarse vertex they hold,
 // which the cut never changes, so the assignment is deterministic.
 void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
+  const std::uint32_t groups = group_around(id);
+  vote_copies(id);
+  choose_copies(id, groups);
   CutNode& n = cut_nodes_[id];
+  const auto& items = scratch_.items;
+  // Coarse tetrahedra whose sub-tetrahedra changed group must be rebuilt.
+  auto& fresh = scratch_.group_of;
+  fresh.clear();
+  for (std::uint32_t i = 0; i < items.size(); ++i)
+    fresh.push_back({items[i].coarse, items[i].sub, scratch_.copy_of[scratch_.item_group[i]]});
+  std::sort(fresh.begin(), fresh.end());
+  for (const auto& e : fresh)
+    if (n.group(e.coarse, e.sub) != e.group) changed.push_back(e.coarse);
+  n.group_of.swap(fresh);
+  n.opened |= n.copies.size() > 1;
+}
+
+// The sub-tetrahedra around cut node `id` (scratch_.items), joined across the faces holding it that
+// are not crack faces, into groups numbered by the smallest vertex they hold (scratch_.item_group);
+// returns how many.
+std::uint32_t CutEngine::group_around(std::uint32_t id) {
+  const CutNode& n = cut_nodes_[id];
   const GNode g = kCutBit | id;
   auto& items = scratch_.items;
   items.clear();
@@ -140,6 +161,15 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
   group_of_root.assign(items.size(), 0);
   for (std::uint32_t k = 0; k < order.size(); ++k) group_of_root[order[k].second] = k;
 
+  auto& item_group = scratch_.item_group;
+  item_group.resize(items.size());
+  for (std::uint32_t i = 0; i < items.size(); ++i) item_group[i] = group_of_root[find(i)];
+  return static_cast<std::uint32_t>(order.size());
+}
+
+void CutEngine::vote_copies(std::uint32_t id) {
+  const CutNode& n = cut_nodes_[id];
+  const auto& items = scratch_.items;
   // Copies follow their elements: once the crack has opened, the copies of n stand apart, and an
   // element moved to another copy would be torn across the gap. A coarse corner of a sub-tetrahedron
   // votes for the copy that shared a live element of the same coarse tetrahedron with it before this
@@ -164,7 +194,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
     for (const GNode v : *items[i].tet) {
       if (v & kCutBit) continue;
       for (const auto& [node, k] : shared)
-        if (node == v) votes.push_back({group_of_root[find(i)], k, 1});
+        if (node == v) votes.push_back({scratch_.item_group[i], k, 1});
     }
   }
   std::sort(votes.begin(), votes.end());
@@ -176,8 +206,17 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
       votes[runs++] = votes[k];
   votes.resize(runs);
   std::stable_sort(votes.begin(), votes.end(), [](const auto& a, const auto& b) { return a[2] > b[2]; });
+}
+
+// The copy each group uses (scratch_.copy_of): the one it voted for most, a pinned node's copy across
+// a sealed face, a free one, or a new one.
+void CutEngine::choose_copies(std::uint32_t id, std::uint32_t groups) {
+  CutNode& n = cut_nodes_[id];
+  const GNode g = kCutBit | id;
+  const auto& items = scratch_.items;
+  const auto& votes = scratch_.votes;
   auto& copy_of = scratch_.copy_of;  // by group
-  copy_of.assign(order.size(), kInvalidIndex);
+  copy_of.assign(groups, kInvalidIndex);
   auto& taken = scratch_.taken;  // by copy
   taken.assign(n.copies.size(), 0);
   // A pinned node's copies are shared with promoted units across sealed faces: a group with a face
@@ -206,7 +245,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
       return kInvalidIndex;
     };
     for (std::uint32_t i = 0; i < items.size(); ++i) {
-      const std::uint32_t group = group_of_root[find(i)];
+      const std::uint32_t group = scratch_.item_group[i];
       const auto& tet = *items[i].tet;
       for (int f = 0; f < 4; ++f) {
         if (tet[static_cast<size_t>(f)] == g || copy_of[group] != kInvalidIndex) continue;
@@ -222,7 +261,7 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
       copy_of[group] = copy;
       taken[copy] = 1;
     }
-  for (std::uint32_t k = 0; k < order.size(); ++k) {
+  for (std::uint32_t k = 0; k < groups; ++k) {
     if (copy_of[k] != kInvalidIndex) continue;
     std::uint32_t used = kInvalidIndex, most = 0;
     for (const auto& [group, copy, count] : votes)
@@ -253,16 +292,6 @@ void CutEngine::regroup(std::uint32_t id, std::vector<std::uint32_t>& changed) {
     copy_of[k] = static_cast<std::uint32_t>(n.copies.size());
     n.copies.push_back(add_node(p));
   }
-  // Coarse tetrahedra whose sub-tetrahedra changed group must be rebuilt.
-  auto& fresh = scratch_.group_of;
-  fresh.clear();
-  for (std::uint32_t i = 0; i < items.size(); ++i)
-    fresh.push_back({items[i].coarse, items[i].sub, copy_of[group_of_root[find(i)]]});
-  std::sort(fresh.begin(), fresh.end());
-  for (const auto& e : fresh)
-    if (n.group(e.coarse, e.sub) != e.group) changed.push_back(e.coarse);
-  n.group_of.swap(fresh);
-  n.opened |= n.copies.size() > 1;
 }
 
 std::uint32_t CutEngine::CutNode::group(std::uint32_t coarse, std::uint32_t sub) const {

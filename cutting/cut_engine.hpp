@@ -290,6 +290,11 @@ class CutEngine {
   // Regroups the sub-tetrahedra around a cut node; appends the coarse tetrahedra whose
   // sub-tetrahedra changed group to `changed`.
   void regroup(std::uint32_t cut_id, std::vector<std::uint32_t>& changed);
+  // regroup()'s stages, over scratch_: the groups of sub-tetrahedra around the node (returns how
+  // many), the old copies each group's corners vote for, and the copy each group takes.
+  std::uint32_t group_around(std::uint32_t cut_id);
+  void vote_copies(std::uint32_t cut_id);
+  void choose_copies(std::uint32_t cut_id, std::uint32_t groups);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
   // Returns how many real nodes it removed (copies no element uses any more).
   std::size_t commit(const std::set<std::uint32_t>& affected, const std::set<std::uint32_t>& left_faces_tets,
@@ -395,6 +400,7 @@ class CutEngine {
     std::vector<std::pair<std::uint32_t, std::uint32_t>> shared;
     std::vector<std::uint32_t> copy_of;
     std::vector<std::uint8_t> taken;
+    std::vector<std::uint32_t> item_group;  // the group of each item
   } scratch_;
   CutTotals totals_;
 };
