@@ -414,27 +414,91 @@ StepStats TissueModel::solve_step(double dt, bool last) {
     return fail("non-finite elastic energy (NaN or inf in the positions)");
   assemble(dt);
 
-  // Preconditioned conjugate gradients on the active nodes, warm-started from the last velocity.
-  const auto& vel = mesh_.velocities();
-  for (std::size_t i = 0; i < nn; ++i) v_[i] = active_[i] ? vel[i] : Vec3::Zero();
-  const bool two_level = settings_.preconditioner == Preconditioner::TwoLevel;
-  const bool update =
-      two_level && !coarse_has_changes_ && !coarse_stale_ && !coarse_regroup_ && !changed_.empty();
-  const bool changed = settings_.local_rings > 0 && !changed_.empty();
-  const auto active_count =
-      (changed || update) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
-  if (update) {
+  const StepPlan plan = plan_step();
+  double rr = 0, b_norm = 0;
+  if (!warm_start(plan, rr, b_norm)) return fail("non-finite forces or velocities");
+  st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
+  const double target = settings_.tolerance * b_norm;
+  const bool local = plan.region && std::sqrt(rr) > target;
+  update_coarse_and_solve_locally(plan, local, target, st);
+  coarse_has_changes_ = !changed_.empty();  // cleared with changed_ once a solve is applied
+  born_.clear();
+  if (local) rr = parallel::reduce(team, nn, partial_, [&](std::size_t i) { return r_[i].squaredNorm(); });
+  if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
+  conjugate_gradients(plan, target, rr, st);
+  st.residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
+  st.status = std::sqrt(rr) <= target ? StepStatus::Converged : StepStatus::IterationCap;
+  if (st.cycle_iterations > settings_.coarse_rebuild_iterations) coarse_stale_ = true;
+  if (st.status == StepStatus::IterationCap) {
+    // Not applied (see advance): redone in halves, or at the last halving held.
+    if (last) {
+      done_with_changes();
+      auto& v = mesh_.velocities();
+      for (std::size_t i = 0; i < nn; ++i)
+        if (mesh_.node_slot_alive(static_cast<std::uint32_t>(i))) v[i].setZero();
+      std::ostringstream s;
+      s << "tissue step: CG stopped at the iteration cap (" << st.cg_iterations
+        << ") with a relative residual of " << st.residual << " in a step of " << dt
+        << " s; the step was not applied, the tissue is held";
+      st.message = s.str();
+      st.kinetic_energy = kinetic_energy();
+    }
+    last_ = st;
+    return st;
+  }
+  // Commit only a finite state.
+  const auto& pos = mesh_.positions();
+  for (std::size_t i = 0; i < nn; ++i)
+    if (active_[i] && !(v_[i].allFinite() && (pos[i] + dt * v_[i]).allFinite())) {
+      std::ostringstream s;
+      s << "non-finite velocity at node " << i << " after " << st.cg_iterations << " CG iterations";
+      return fail(s.str());
+    }
+  done_with_changes();
+  apply_velocities(dt);
+  st.kinetic_energy = kinetic_energy();
+  last_ = st;
+  return st;
+}
+
+// The case of this step, decided before it runs: settled (no rows changed since the last applied
+// solve), after a cut (changed rows: a local solve on their region first, and the two-level
+// preconditioner extended by the new nodes unless it is due for a rebuild), severing (the cut
+// severs a coarse aggregate, which is split beside the local solve), or rebuild due (the
+// preconditioner was found stale at an earlier step: rebuilt now, beside the local solve if any).
+TissueModel::StepPlan TissueModel::plan_step() {
+  StepPlan p;
+  p.two_level = settings_.preconditioner == Preconditioner::TwoLevel;
+  p.extend = p.two_level && !coarse_has_changes_ && !coarse_stale_ && !coarse_regroup_ && !changed_.empty();
+  p.changed = settings_.local_rings > 0 && !changed_.empty();
+  p.active_count =
+      (p.changed || p.extend) ? static_cast<std::size_t>(std::count(active_.begin(), active_.end(), 1)) : 0;
+  if (p.extend) {
     for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
     coarse_.touch(changed_);  // their coarse rows are out of date (the next split recomputes them)
   }
-  // A cut that severs a coarse aggregate: the split runs beside the local solve (below), whose
-  // region then has fewer rings.
-  const bool severs = update && coarse_.severs(rows_, active_, changed_);
+  // A cut that severs a coarse aggregate: the split runs beside the local solve, whose region then
+  // has fewer rings.
+  p.severs = p.extend && coarse_.severs(rows_, active_, changed_);
   // After a topology change: the local solve first (see tissue.hpp), on this region.
-  const bool region =
-      changed && local_region(changed_, active_count,
-                              severs ? std::min(settings_.local_rings, settings_.severing_rings)
-                                     : settings_.local_rings);
+  p.region = p.changed && local_region(changed_, p.active_count,
+                                       p.severs ? std::min(settings_.local_rings, settings_.severing_rings)
+                                                : settings_.local_rings);
+  // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
+  // a cut created, and rebuilt at the step after the one that found it stale (too many two-level
+  // iterations, too many extended nodes, an aggregate grown too large): the step that made the
+  // change does not also pay for the rebuild.
+  p.rebuild = p.two_level && (coarse_stale_ || coarse_regroup_) && !p.extend;
+  return p;
+}
+
+// v_ from the last velocity of the active nodes, scaled; r_ = b_ - A v_. Returns false if the
+// residual is not finite; rr and b_norm: |r|^2 and |b|.
+bool TissueModel::warm_start(const StepPlan& plan, double& rr, double& b_norm) {
+  const std::size_t nn = rows_.size();
+  parallel::Team& team = this->team();
+  const auto& vel = mesh_.velocities();
+  for (std::size_t i = 0; i < nn; ++i) v_[i] = active_[i] ? vel[i] : Vec3::Zero();
   const double vav = multiply(v_, q_);
   std::vector<double>& part = partial_;
   const std::size_t chunks = chunk_count(nn);
@@ -450,7 +514,7 @@ StepStats TissueModel::solve_step(double dt, bool last) {
   // 4-5 instead of 6-8 where the blade enters the next column of cells, 4.10 instead of 4.31 per cut
   // step (mass-spring 10.7 instead of 11.6; at 5 thousand tetrahedra 8.4 instead of 8.0, in the
   // same time).
-  const bool keep_outside = region && scale == 0;
+  const bool keep_outside = plan.region && scale == 0;
   if (keep_outside) {
     for_chunks(team, nn, [&](std::size_t, std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i)
@@ -460,67 +524,73 @@ StepStats TissueModel::solve_step(double dt, bool last) {
   }
   const double applied = keep_outside ? 1.0 : scale;
   for_chunks(team, nn, [&](std::size_t c, std::size_t begin, std::size_t end) {
-    double rr = 0, bb = 0;
+    double r2 = 0, b2 = 0;
     for (std::size_t i = begin; i < end; ++i) {
       v_[i] *= applied;
       r_[i] = active_[i] ? Vec3(b_[i] - applied * q_[i]) : Vec3::Zero();
-      rr += r_[i].squaredNorm();
-      bb += b_[i].squaredNorm();
+      r2 += r_[i].squaredNorm();
+      b2 += b_[i].squaredNorm();
     }
-    part[c] = rr;
-    part[chunks + c] = bb;
+    part[c] = r2;
+    part[chunks + c] = b2;
   });
-  double rr = sum(part, chunks), bb = 0;
+  rr = sum(part, chunks);
+  double bb = 0;
   for (std::size_t c = 0; c < chunks; ++c) bb += part[chunks + c];
-  const double b_norm = std::sqrt(bb);
-  if (!std::isfinite(b_norm) || !std::isfinite(rr)) return fail("non-finite forces or velocities");
-  st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
-  const double target = settings_.tolerance * b_norm;
-  // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
-  // a cut created, and rebuilt at the step after the one that found it stale (too many two-level
-  // iterations, too many extended nodes, an aggregate grown too large): the step that made the
-  // change does not also pay for the rebuild.
-  const bool local = region && std::sqrt(rr) > target;
-  const auto split = [&](parallel::Team& split_team) {
-    // An aggregate the cut severed would tie both sides of the crack to one rigid motion. severs
-    // already searched the touched aggregates: without it there is nothing to split.
-    if (severs) {
-      const bool whole = coarse_age_ > kCoarseRefreshSteps;
-      st.aggregates_split =
-          coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team, whole);
-      if (coarse_.split_whole()) coarse_age_ = 0;
-    }
-    coarse_stale_ = static_cast<double>(coarse_.extended()) >
-                    settings_.coarse_rebuild_fraction * static_cast<double>(active_count);
-    coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
-  };
-  const bool rebuild = two_level && (coarse_stale_ || coarse_regroup_) && !update;
-  const auto build = [&](parallel::Team& build_team, std::vector<double>& build_partial) {
-    coarse_.set_options(settings_.two_level);
-    coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), build_partial, build_team, coarse_stale_);
-    coarse_stale_ = false;
-    coarse_regroup_ = false;
-    coarse_age_ = 0;
-    st.preconditioner_built = true;
-  };
-  if (local && severs) {
-    // The split (1.3-1.6 ms on one thread during the incision of bench/bench_fem.cpp) on one
-    // worker, the local solve on the caller, joined by the worker once the split is done.
-    team.run_beside([&] { split(solo_); }, [&] { solve_locally(active_count, target, st, team); });
-  } else if (local && rebuild) {
-    // A rebuild (the regroups during that incision: 3.3-4 ms on one thread, the local solve 2-5)
-    // does not need the local solve's result either: the same.
-    team.run_beside([&] { build(solo_, solo_partial_); },
-                    [&] { solve_locally(active_count, target, st, team); });
-  } else {
-    if (update) split(team);
-    if (local) solve_locally(active_count, target, st, team);
-    if (rebuild) build(team, partial_);
+  b_norm = std::sqrt(bb);
+  return std::isfinite(b_norm) && std::isfinite(rr);
+}
+
+// An aggregate the cut severed would tie both sides of the crack to one rigid motion. severs
+// already searched the touched aggregates: without it there is nothing to split.
+void TissueModel::split_coarse(const StepPlan& plan, parallel::Team& split_team, StepStats& st) {
+  if (plan.severs) {
+    const bool whole = coarse_age_ > kCoarseRefreshSteps;
+    st.aggregates_split =
+        coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team, whole);
+    if (coarse_.split_whole()) coarse_age_ = 0;
   }
-  coarse_has_changes_ = !changed_.empty();  // cleared with changed_ once a solve is applied
-  born_.clear();
-  if (local) rr = parallel::reduce(team, nn, part, [&](std::size_t i) { return r_[i].squaredNorm(); });
-  if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
+  coarse_stale_ = static_cast<double>(coarse_.extended()) >
+                  settings_.coarse_rebuild_fraction * static_cast<double>(plan.active_count);
+  coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
+}
+
+void TissueModel::build_coarse(parallel::Team& build_team, std::vector<double>& build_partial,
+                               StepStats& st) {
+  coarse_.set_options(settings_.two_level);
+  coarse_.build(rows_, diag_inverse_, active_, mesh_.positions(), build_partial, build_team, coarse_stale_);
+  coarse_stale_ = false;
+  coarse_regroup_ = false;
+  coarse_age_ = 0;
+  st.preconditioner_built = true;
+}
+
+void TissueModel::update_coarse_and_solve_locally(const StepPlan& plan, bool local, double target,
+                                                  StepStats& st) {
+  parallel::Team& team = this->team();
+  if (local && plan.severs) {
+    // The split on one worker, the local solve on the caller, joined by the worker once the split
+    // is done.
+    team.run_beside([&] { split_coarse(plan, solo_, st); },
+                    [&] { solve_locally(plan.active_count, target, st, team); });
+  } else if (local && plan.rebuild) {
+    // A rebuild does not need the local solve's result either: the same.
+    team.run_beside([&] { build_coarse(solo_, solo_partial_, st); },
+                    [&] { solve_locally(plan.active_count, target, st, team); });
+  } else {
+    if (plan.extend) split_coarse(plan, team, st);
+    if (local) solve_locally(plan.active_count, target, st, team);
+    if (plan.rebuild) build_coarse(team, partial_, st);
+  }
+}
+
+// Preconditioned conjugate gradients on the active nodes from the warm start, to |r| <= target or
+// the iteration cap; rr: |r|^2, kept current.
+void TissueModel::conjugate_gradients(const StepPlan& plan, double target, double& rr, StepStats& st) {
+  const std::size_t nn = rows_.size();
+  parallel::Team& team = this->team();
+  std::vector<double>& part = partial_;
+  const bool two_level = plan.two_level;
   // z = B r; returns r . z.
   bool cycle = false;  // the two-level cycle is in use
   const auto precondition = [&] {
@@ -563,7 +633,7 @@ StepStats TissueModel::solve_step(double dt, bool last) {
     if (cycle && !(rz > 0) && !reestimated) {
       reestimated = true;
       coarse_stale_ = true;
-      build(team, partial_);
+      build_coarse(team, partial_, st);
       restart();
     }
     if (cycle && !(rz > 0)) {
@@ -590,36 +660,13 @@ StepStats TissueModel::solve_step(double dt, bool last) {
     });
   }
   st.cg_iterations = it;
-  st.residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
-  st.status = std::sqrt(rr) <= target ? StepStatus::Converged : StepStatus::IterationCap;
   st.cycle_iterations = cycle_it;
-  if (cycle_it > settings_.coarse_rebuild_iterations) coarse_stale_ = true;
-  if (st.status == StepStatus::IterationCap) {
-    // Not applied (see advance): redone in halves, or at the last halving held.
-    if (last) {
-      done_with_changes();
-      auto& v = mesh_.velocities();
-      for (std::size_t i = 0; i < nn; ++i)
-        if (mesh_.node_slot_alive(static_cast<std::uint32_t>(i))) v[i].setZero();
-      std::ostringstream s;
-      s << "tissue step: CG stopped at the iteration cap (" << it << ") with a relative residual of "
-        << st.residual << " in a step of " << dt << " s; the step was not applied, the tissue is held";
-      st.message = s.str();
-      st.kinetic_energy = kinetic_energy();
-    }
-    last_ = st;
-    return st;
-  }
+}
 
-  // Commit only a finite state.
-  const auto& pos = mesh_.positions();
-  for (std::size_t i = 0; i < nn; ++i)
-    if (active_[i] && !(v_[i].allFinite() && (pos[i] + dt * v_[i]).allFinite())) {
-      std::ostringstream s;
-      s << "non-finite velocity at node " << i << " after " << it << " CG iterations";
-      return fail(s.str());
-    }
-  done_with_changes();
+// Applies the solved velocities: active nodes move with theirs, passengers with their supporting
+// neighbours', the rest stand.
+void TissueModel::apply_velocities(double dt) {
+  const std::size_t nn = rows_.size();
   auto& x = mesh_.positions();
   auto& v = mesh_.velocities();
   for (std::size_t i = 0; i < nn; ++i) {
@@ -642,9 +689,6 @@ StepStats TissueModel::solve_step(double dt, bool last) {
       v[i].setZero();
     }
   }
-  st.kinetic_energy = kinetic_energy();
-  last_ = st;
-  return st;
 }
 
 }  // namespace scalpel

@@ -45,7 +45,7 @@
 // local_fraction of the active nodes (small meshes); a change that reaches half of them (the first
 // step, a severed part) is not local and is solved globally at once. The local solve changes the
 // start, not the solution. Its sweeps run on two threads: two parts of the region that share no
-// block are swept at once, then the interface between them (fem/tissue.cpp). At a step whose cut
+// block are swept at once, then the interface between them (fem/local_solve.cpp). At a step whose cut
 // severs a coarse aggregate, one thread splits it (fem/two_level.hpp) and then joins the local solve,
 // whose region has severing_rings rings: during the incision of bench/bench_fem.cpp those steps
 // (where the blade enters the next column of cells) took 1.5-1.8 times the step before them with
@@ -212,6 +212,24 @@ class TissueModel {
   // `last`, held if it did not (a non-converged solve otherwise writes nothing).
   StepStats advance(double dt, int depth);
   StepStats solve_step(double dt, bool last);
+  // solve_step()'s pipeline: the case of the step (see plan_step), the warm start, the coarse
+  // update beside the local solve, CG, and the velocities applied.
+  struct StepPlan {
+    bool two_level = false;        // settings_.preconditioner is the two-level one
+    bool extend = false;           // after a cut: the preconditioner is extended by the new nodes
+    bool changed = false;          // rows changed since the last applied solve
+    bool severs = false;           // the cut severs a coarse aggregate: split it
+    bool region = false;           // the change is local: its region is in local_
+    bool rebuild = false;          // the preconditioner is due for a rebuild
+    std::size_t active_count = 0;  // active nodes (counted only after a change)
+  };
+  StepPlan plan_step();
+  bool warm_start(const StepPlan& plan, double& rr, double& b_norm);
+  void split_coarse(const StepPlan& plan, parallel::Team& split_team, StepStats& st);
+  void build_coarse(parallel::Team& build_team, std::vector<double>& build_partial, StepStats& st);
+  void update_coarse_and_solve_locally(const StepPlan& plan, bool local, double target, StepStats& st);
+  void conjugate_gradients(const StepPlan& plan, double target, double& rr, StepStats& st);
+  void apply_velocities(double dt);
   double multiply(const std::vector<Vec3>& x, std::vector<Vec3>& y);
   // The region of the local solve (see above): the changed rows and `rings` rings of neighbours around
   // them, in local_ and in_local_; false if the change is not local. active_count: the active
