@@ -173,10 +173,8 @@ void CutEngine::vote_copies(std::uint32_t id) {
   // Copies follow their elements: once the crack has opened, the copies of n stand apart, and an
   // element moved to another copy would be torn across the gap. A coarse corner of a sub-tetrahedron
   // votes for the copy that shared a live element of the same coarse tetrahedron with it before this
-  // step (the live elements are rebuilt after regrouping). Each group keeps the copy with the most
-  // votes (largest counts first); a group split off gets a new copy where the copy it voted for
-  // stands; a group without votes (all its coarse tetrahedra newly cut) takes a copy no group uses
-  // or else a new one interpolated from the key nodes, where those coarse tetrahedra put n.
+  // step (the live elements are rebuilt after regrouping); votes are counted per (group, copy),
+  // largest counts first.
   auto& votes = scratch_.votes;  // (group, copy, count)
   votes.clear();
   auto& shared = scratch_.shared;  // (node slot, copy) per old live element of one coarse tetrahedron
@@ -208,8 +206,11 @@ void CutEngine::vote_copies(std::uint32_t id) {
   std::stable_sort(votes.begin(), votes.end(), [](const auto& a, const auto& b) { return a[2] > b[2]; });
 }
 
-// The copy each group uses (scratch_.copy_of): the one it voted for most, a pinned node's copy across
-// a sealed face, a free one, or a new one.
+// The copy each group uses (scratch_.copy_of). Each group keeps the copy with the most votes; a group
+// split off gets a new copy where the copy it voted for stands; a group without votes (all its
+// coarse tetrahedra newly cut) takes a copy no group uses or else a new one interpolated from the
+// key nodes, where those coarse tetrahedra put n. A pinned node's group with a sealed face keeps the
+// copy across it.
 void CutEngine::choose_copies(std::uint32_t id, std::uint32_t groups) {
   CutNode& n = cut_nodes_[id];
   const GNode g = kCutBit | id;

@@ -151,7 +151,8 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
           regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
   }
   // Completion (§4.3, "leave"): a cut tetrahedron none of whose faces the blade crosses any more is
-  // in an end state; one the blade crosses again is open (a stroke extending its cut). Only
+  // in an end state. One whose cut this step changed is open while the blade crosses one of its
+  // faces (a stroke extending its cut); one whose cut did not change stays as it was. Only
   // tetrahedra whose cut changed or whose faces the blade left can change.
   for (const auto& [t, from] : before) {
     const auto it = cut_tets_.find(t);

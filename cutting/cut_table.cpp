@@ -317,9 +317,10 @@ std::string event_name(const CutEvent& e) {
 
 Transition apply_event(const CutTable& table, const MachineState& s, const CutEvent& e) {
   Transition tr;
-  // An event on an end state re-opens it: the blade has come back to the tetrahedron's cut (a
-  // reversal, a stroke resumed along it). Whether it is the same surface is geometry, decided by the
-  // engine (docs/state_machine.md); a different one goes to the recursive continuation (§6).
+  // A valid event other than leave on an end state re-opens it: the blade has come back to the
+  // tetrahedron's cut (a reversal, a stroke resumed along it). Whether it is the same surface is
+  // geometry, decided by the engine (docs/state_machine.md); a different one goes to the recursive
+  // continuation (§6).
   CutTopology t = s.topology;
   bool complete = false;
   switch (e.kind) {

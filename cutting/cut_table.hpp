@@ -3,7 +3,8 @@
 // The script (config/cutting/state_machine.cut, grammar in config/cutting/README.md) holds
 //   - the names of the edge-topology classes (the letters of the state labels),
 //   - the planar edge patterns the basic machine represents: an edge mask that is no subset of
-//     one of them needs the recursive continuation (§6),
+//     one of them is, in an end state, a second surface for the recursive continuation (§6), and
+//     while the blade is in the tetrahedron a fold the subdivision holds as it is,
 //   - the subdivision program: instructions in the labels of the reference tetrahedron (A, B, C,
 //     D; edges AB..CD; faces by their three vertices), each guarded by a condition on the state.
 // It is parsed once at start-up into a CutTable: a compact instruction array that the engine runs
@@ -67,7 +68,7 @@ struct CutTable {
 struct CutEvent {
   enum class Kind : std::uint8_t { CutEdge, Pierce, Cross, Leave, Withdraw };
   Kind kind = Kind::CutEdge;
-  std::uint8_t index = 0;  // edge index for CutEdge; face index for Pierce and Cross
+  std::uint8_t index = 0;  // edge index for CutEdge; face index for Pierce, Cross and Withdraw
   friend bool operator==(const CutEvent&, const CutEvent&) = default;
 };
 [[nodiscard]] std::string event_name(const CutEvent& e);
@@ -91,8 +92,9 @@ struct MachineState {
 };
 
 // The result of one (state, event) pair: the next state, or invalid (the recursive continuation's
-// case: an edge cut twice, a face pierced or crossed twice, an unrepresentable pattern; or an event
-// that cannot happen: leaving twice, withdrawing by a face never entered or already cut).
+// case: an edge cut twice, a face pierced twice, a face crossed twice in an open state, a pattern
+// beyond the planar ones in an end state; or an event that cannot happen: leaving an end state or
+// the empty one, withdrawing by a face never entered or whose edges are cut).
 struct Transition {
   bool valid = false;
   MachineState next;

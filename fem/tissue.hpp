@@ -217,7 +217,7 @@ class TissueModel {
   struct StepPlan {
     bool two_level = false;        // settings_.preconditioner is the two-level one
     bool extend = false;           // after a cut: the preconditioner is extended by the new nodes
-    bool changed = false;          // rows changed since the last applied solve
+    bool changed = false;          // rows changed since the last applied solve, local_rings > 0
     bool severs = false;           // the cut severs a coarse aggregate: split it
     bool region = false;           // the change is local: its region is in local_
     bool rebuild = false;          // the preconditioner is due for a rebuild

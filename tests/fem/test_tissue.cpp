@@ -515,7 +515,8 @@ TEST_CASE("the step is bit-identical run to run and for any thread count" * doct
     for (int k = 0; k < 10; ++k) cycles += model.step(0.01).cycle_iterations;
     make_incision(m, model, 0.008, 0.002);
     const StepStats cut = model.step(0.01);
-    // A local solve large enough to be shared between the threads (fem/tissue.cpp: at 128 nodes).
+    // A local solve large enough to be shared between the threads (fem/local_solve.cpp, kMinHalf in
+    // fem/tissue.hpp: at 128 nodes).
     CHECK(cut.local_nodes >= 128);
     CHECK(cut.local_iterations > 0);
     // The cut severed coarse aggregates: the split ran beside the local solve (on two threads).
