@@ -336,8 +336,25 @@ void check_state(const CutTable& table, const MachineState& s, const Perm4& perm
     const EdgeClass c = edge_class(s.topology.edges);
     const bool through = c == EdgeClass::ThreeAroundVertex || c == EdgeClass::FourLoop;
     const std::size_t parts = connected_components(mesh).count();
-    if (!through) CHECK(parts == 1u);
-    if (through && s.topology.entries == 0) CHECK(parts == 2u);
+    if (planar_edges(s.topology.edges)) {
+      if (!through) CHECK(parts == 1u);
+      if (through && s.topology.entries == 0) CHECK(parts == 2u);
+    } else {
+      // A fold (classes H-K): every vertex its cut edges surround comes free, as if cut alone, so
+      // the pieces are the vertices joined by uncut edges; the tip's path does not hold them.
+      std::array<int, 4> root{0, 1, 2, 3};
+      const auto find = [&](int v) {
+        while (root[static_cast<size_t>(v)] != v) v = root[static_cast<size_t>(v)];
+        return v;
+      };
+      for (int e = 0; e < 6; ++e)
+        if (!(s.topology.edges & (1u << e)))
+          root[static_cast<size_t>(find(kEdgeVertices[static_cast<size_t>(e)][0]))] =
+              find(kEdgeVertices[static_cast<size_t>(e)][1]);
+      std::size_t joined = 0;
+      for (int v = 0; v < 4; ++v) joined += find(v) == v ? 1 : 0;
+      CHECK(parts == joined);
+    }
   }
 }
 
