@@ -391,4 +391,16 @@ bool reaches(const CutTable& table, const MachineState& from, const MachineState
   return std::find(all.begin(), all.end(), to) != all.end();
 }
 
+std::string unreached_transitions(
+    const CutTable& table, const std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t>& changes) {
+  std::ostringstream out;
+  for (const auto& [keys, count] : changes) {
+    const MachineState from = MachineState::from_key(keys.first), to = MachineState::from_key(keys.second);
+    if (reaches(table, from, to)) continue;
+    out << table.label(from.topology, from.complete) << " -> " << table.label(to.topology, to.complete)
+        << " (" << keys.first << " -> " << keys.second << ", " << count << " times)\n";
+  }
+  return out.str();
+}
+
 }  // namespace scalpel

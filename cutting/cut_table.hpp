@@ -14,7 +14,9 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cutting/cut_state.hpp"
@@ -112,5 +114,10 @@ struct Transition {
 // Whether events of the table lead from `from` to `to` (one tool sample may bring several: the
 // engine's transitions are these).
 [[nodiscard]] bool reaches(const CutTable& table, const MachineState& from, const MachineState& to);
+// The changes of state in `changes` (MachineState::key() before and after, with a count, as in
+// CutTotals::state_transitions) that no sequence of the table's events makes, one line each
+// ("A3 -> B0 (897 -> 1984, 2 times)"); empty if there is none.
+[[nodiscard]] std::string unreached_transitions(
+    const CutTable& table, const std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t>& changes);
 
 }  // namespace scalpel

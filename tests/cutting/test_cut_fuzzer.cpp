@@ -418,14 +418,9 @@ Outcome run(const Scene& s, const Trajectory& t) {
   const std::size_t end = t.samples.size();
   // Every change of state the engine made is a sequence of events of the table's machine.
   const CutTable& table = default_cut_table();
-  for (const auto& [keys, count] : cutter.totals().state_transitions) {
-    const MachineState from = MachineState::from_key(keys.first), to = MachineState::from_key(keys.second);
-    if (!reaches(table, from, to))
-      return fail(end, "state machine: " + table.label(from.topology, from.complete) + " -> " +
-                           table.label(to.topology, to.complete) + " (" + std::to_string(keys.first) +
-                           " -> " + std::to_string(keys.second) + ", " + std::to_string(count) +
-                           " times) is no sequence of the table's events");
-  }
+  const std::string unreached = unreached_transitions(table, cutter.totals().state_transitions);
+  if (!unreached.empty())
+    return fail(end, "state machine: no sequence of the table's events makes\n" + unreached);
   const auto report = validate(mesh, {.reference_volume = s.volume});
   if (!report.ok()) return fail(end, report.summary());
   const Components pieces = connected_components(mesh);

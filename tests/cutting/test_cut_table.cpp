@@ -398,3 +398,12 @@ TEST_CASE("the state listing and the Graphviz drawing hold the reachable machine
         std::string::npos);
   CHECK(dot.find("D0 -> B0") == std::string::npos);  // a cut is never undone
 }
+
+TEST_CASE("changes of state no events make are named, the others pass") {
+  const CutTable& table = default_cut_table();
+  const std::uint32_t o0 = MachineState{}.key();
+  const std::uint32_t a0 = state_of({AB, ABC | ABD, 0}, false).key();
+  CHECK(unreached_transitions(table, {{{o0, a0}, 3}}).empty());
+  const std::string undone = unreached_transitions(table, {{{o0, a0}, 3}, {{a0, o0}, 2}});
+  CHECK(undone == "A0 -> O0 (" + std::to_string(a0) + " -> " + std::to_string(o0) + ", 2 times)\n");
+}
