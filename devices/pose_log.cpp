@@ -1,8 +1,13 @@
 #include "devices/pose_log.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -95,8 +100,25 @@ bool PoseLogReader::read_line() {
     return false;
   }
   ++line_;
+  // getline stops at the end of the input without a newline only on the last line.
+  line_terminated_ = !in_->eof();
   if (!line_text_.empty() && line_text_.back() == '\r') line_text_.pop_back();
   return true;
+}
+
+bool PoseLogReader::read_whole_line() {
+  if (!read_line()) return false;
+  if (line_terminated_ || trim(line_text_).empty()) return true;
+  // A writer ends every line with a newline: a last line without one was cut short while it was
+  // written, and even one that parses may have lost digits.
+  torn_line_ = line_;
+  return false;
+}
+
+std::string PoseLogReader::torn_warning() const {
+  if (torn_line_ == 0) return {};
+  return name_ + ":" + std::to_string(torn_line_) +
+         ": the last line has no newline (a recording cut short while writing it); skipped";
 }
 
 std::optional<std::string> PoseLogReader::metadata(std::string_view key) const {
@@ -155,7 +177,7 @@ void PoseLogReader::read_preamble() {
 bool PoseLogReader::next(ToolSample& sample) {
   std::string_view line;
   while (true) {
-    if (!read_line()) return false;
+    if (!read_whole_line()) return false;
     line = trim(line_text_);
     if (line.empty()) continue;
     if (line.front() != '#') break;
@@ -190,9 +212,22 @@ bool PoseLogReader::next(ToolSample& sample) {
     }
   }
 
+  if (!(std::abs(v[0]) <= kPoseLogMaxTime))
+    fail(f[0].column, "t", quoted(f[0].text, "is beyond the log's time range of +-1e6 s"));
   if (any_sample_ && !(v[0] > last_t_))
     fail(f[0].column, "t",
          "time must increase strictly (previous sample at t = " + std::to_string(last_t_) + ")");
+  if (any_sample_ && !(v[0] - last_t_ >= kPoseLogMinStep))
+    fail(f[0].column, "t",
+         "samples less than 1 microsecond apart (previous at t = " + std::to_string(last_t_) +
+             "); a device samples at 1 MHz at most");
+  for (std::size_t i = 1; i <= 3; ++i)
+    if (!(std::abs(v[i]) <= kPoseLogMaxCoordinate))
+      fail(f[i].column, kColumns[i], quoted(f[i].text, "is more than 100 m from the origin"));
+  if (has_force_)
+    for (std::size_t i = 9; i <= 11; ++i)
+      if (!(std::abs(v[i]) <= kPoseLogMaxForce))
+        fail(f[i].column, kColumns[i], quoted(f[i].text, "is beyond the force range of +-1000 N"));
 
   const double norm = std::sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]);
   if (!(std::abs(norm - 1.0) <= kPoseLogUnitTolerance))
@@ -238,11 +273,12 @@ bool PoseLogReader::next(ToolSample& sample) {
   return true;
 }
 
-std::vector<ToolSample> read_pose_log(const std::string& path) {
+std::vector<ToolSample> read_pose_log(const std::string& path, std::string* torn_warning) {
   PoseLogReader reader(path);
   std::vector<ToolSample> samples;
   ToolSample s;
   while (reader.next(s)) samples.push_back(s);
+  if (torn_warning) *torn_warning = reader.torn_warning();
   return samples;
 }
 
@@ -250,39 +286,90 @@ std::vector<ToolSample> read_pose_log(const std::string& path) {
 
 PoseLogWriter::PoseLogWriter(const std::string& path, const PoseLogMetadata& metadata, bool with_force,
                              bool with_frame)
-    : file_(path, std::ios::binary | std::ios::trunc),
-      out_(&file_),
+    : fd_(::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)),
       name_(path),
       with_force_(with_force || with_frame),
       with_frame_(with_frame) {
-  if (!file_) throw InputError(path, 0, 0, "", "cannot open pose log for writing");
-  write_preamble(metadata);
+  if (fd_ < 0)
+    throw InputError(path, 0, 0, "",
+                     std::string("cannot open pose log for writing: ") + std::strerror(errno));
+  pending_.reserve(kPoseLogBufferBytes);
+  try {
+    write_preamble(metadata);
+    sync();  // a recording killed before its first sample is still a log
+  } catch (...) {
+    ::close(fd_);
+    throw;
+  }
 }
 
 PoseLogWriter::PoseLogWriter(std::ostream& out, std::string name, const PoseLogMetadata& metadata,
                              bool with_force, bool with_frame)
     : out_(&out), name_(std::move(name)), with_force_(with_force || with_frame), with_frame_(with_frame) {
+  pending_.reserve(kPoseLogBufferBytes);
   write_preamble(metadata);
 }
 
+PoseLogWriter::~PoseLogWriter() {
+  try {
+    flush();
+  } catch (const std::exception&) {  // NOLINT(bugprone-empty-catch): flush() reports it to callers
+  }
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void PoseLogWriter::append(const char* text, std::size_t size) {
+  if (out_) {  // a stream buffers on its own
+    out_->write(text, static_cast<std::streamsize>(size));
+    return;
+  }
+  // Only whole lines reach the file: the buffer goes out before a line that would not fit.
+  if (!pending_.empty() && pending_.size() + size > pending_.capacity()) write_out();
+  pending_.append(text, size);
+}
+
+void PoseLogWriter::write_out() {
+  if (out_) return;
+  std::size_t done = 0;
+  while (done < pending_.size()) {
+    const ssize_t n = ::write(fd_, pending_.data() + done, pending_.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      pending_.erase(0, done);
+      throw std::runtime_error(name_ + ": cannot write pose log: " + std::strerror(errno));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  pending_.clear();
+}
+
 void PoseLogWriter::write_preamble(const PoseLogMetadata& metadata) {
-  *out_ << kPoseLogMagic << '\n';
+  std::string text(kPoseLogMagic);
+  text += '\n';
   for (const auto& [key, value] : metadata) {
     const bool bad_key =
         key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
     if (bad_key || value.find_first_of("\r\n") != std::string::npos)
       throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
-    *out_ << "# " << key << ": " << value << '\n';
+    text += "# " + key + ": " + value + '\n';
   }
-  *out_ << kHeaderText << (with_force_ ? ",fx,fy,fz" : "") << (with_frame_ ? ",frame" : "") << '\n';
+  text += std::string(kHeaderText) + (with_force_ ? ",fx,fy,fz" : "") + (with_frame_ ? ",frame" : "") + '\n';
+  append(text.data(), text.size());
 }
 
 void PoseLogWriter::write(const ToolSample& s, std::uint64_t frame) {
   if (!is_valid(s, kPoseLogUnitTolerance))
     throw std::invalid_argument(name_ + ": sample at t = " + std::to_string(s.t) +
                                 " is not finite or its quaternion is not unit");
-  if (count_ > 0 && !(s.t > last_t_))
-    throw std::invalid_argument(name_ + ": sample time " + std::to_string(s.t) + " does not increase");
+  if (count_ > 0 && !(s.t - last_t_ >= kPoseLogMinStep))
+    throw std::invalid_argument(name_ + ": sample time " + std::to_string(s.t) +
+                                " is not at least 1 microsecond after the previous one");
+  const bool in_range = std::abs(s.t) <= kPoseLogMaxTime &&
+                        s.position.cwiseAbs().maxCoeff() <= kPoseLogMaxCoordinate &&
+                        (!with_force_ || s.force.cwiseAbs().maxCoeff() <= kPoseLogMaxForce);
+  if (!in_range)
+    throw std::invalid_argument(name_ + ": sample at t = " + std::to_string(s.t) +
+                                " is beyond the log's bounds (time, position or force)");
   if (with_frame_ && count_ > 0 && frame < last_frame_)
     throw std::invalid_argument(name_ + ": frame " + std::to_string(frame) + " goes back");
   // 12 shortest doubles (at most 24 characters each), two integers and separators.
@@ -313,7 +400,7 @@ void PoseLogWriter::write(const ToolSample& s, std::uint64_t frame) {
     last_frame_ = frame;
   }
   *p++ = '\n';
-  out_->write(buffer.data(), p - buffer.data());
+  append(buffer.data(), static_cast<std::size_t>(p - buffer.data()));
   last_t_ = s.t;
   ++count_;
 }
@@ -323,12 +410,30 @@ void PoseLogWriter::write_trailer(const std::string& key, const std::string& val
       key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
   if (bad_key || value.find_first_of("\r\n") != std::string::npos)
     throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
-  *out_ << "# " << key << ": " << value << '\n';
+  const std::string line = "# " + key + ": " + value + '\n';
+  append(line.data(), line.size());
 }
 
 void PoseLogWriter::flush() {
-  out_->flush();
-  if (!*out_) throw std::runtime_error(name_ + ": cannot write pose log");
+  write_out();
+  if (out_) {
+    out_->flush();
+    if (!*out_) throw std::runtime_error(name_ + ": cannot write pose log");
+    return;
+  }
+  const auto now = std::chrono::steady_clock::now();
+  if (std::chrono::duration<double>(now - last_sync_).count() >= sync_interval_) sync();
+}
+
+void PoseLogWriter::sync() {
+  write_out();
+  if (out_) {
+    out_->flush();
+    return;
+  }
+  if (::fsync(fd_) != 0) throw std::runtime_error(name_ + ": cannot sync pose log: " + std::strerror(errno));
+  last_sync_ = std::chrono::steady_clock::now();
+  ++syncs_;
 }
 
 }  // namespace scalpel

@@ -5,13 +5,16 @@
 
 #include <atomic>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <thread>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -19,6 +22,7 @@
 #include "base/input_error.hpp"
 #include "cutting/cut_table.hpp"
 #include "cutting/state_graph.hpp"
+#include "devices/device_access.hpp"
 #include "devices/device_profile.hpp"
 #include "devices/hid_device.hpp"
 #include "devices/mock_device.hpp"
@@ -48,8 +52,16 @@ using namespace scalpel;
 
 namespace {
 
-// A bundled file: looked up from the working directory upwards, then in the source tree.
+// A bundled file: in an installed layout beside the executable (PREFIX/bin/scalpelsim and
+// PREFIX/share/scalpelsim/...), else from the working directory upwards, else in the source tree
+// the program was built from.
 fs::path bundled(const fs::path& relative) {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share/scalpelsim" / relative;
+    if (fs::exists(installed)) return installed;
+  }
   for (fs::path dir = fs::current_path(); !dir.empty(); dir = dir.parent_path()) {
     if (fs::exists(dir / relative)) return dir / relative;
     if (dir == dir.parent_path()) break;
@@ -74,11 +86,38 @@ void print_progress(double fraction) {
   if (fraction >= 1.0) std::fprintf(stderr, "\n");
 }
 
-// Exit codes (README): 0 done, 1 mesh invariants broken, 2 bad input, 3 any other error, 4 no
-// graphics (built without the window, or no OpenGL 3.3 context), 5 warnings under --strict.
+// Exit codes (README): 0 done, 1 mesh invariants broken, 2 bad input or usage, 3 any other error,
+// 4 no graphics (built without the window, or no OpenGL 3.3 context), 5 warnings under --strict.
+constexpr int kExitUsage = 2;
 constexpr int kExitNoGraphics = 4;
 constexpr int kExitStrict = 5;
-constexpr int kExitExpectations = 6;  // `check`: a session did not show what its check file expects
+constexpr int kExitExpectations = 6;      // `check`: a session did not show what its check file expects
+constexpr int kExitSimulationFailed = 7;  // the run ended, but the tissue solve met NaN or infinity
+constexpr int kExitNoDevice = 8;          // `record`: no device attached or accessible, nothing recorded
+
+// An output folder the command will write, checked before anything runs: created if missing, and
+// refused (bad input) when it is a file or not writable.
+void check_output_dir(const fs::path& dir, const std::string& option) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir))
+    throw InputError(option, 0, 0, option,
+                     "'" + dir.string() + "' is not a folder that can be created" +
+                         (ec ? " (" + ec.message() + ")" : std::string()));
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    throw InputError(option, 0, 0, option, "cannot write in '" + dir.string() + "': " + std::strerror(errno));
+}
+
+// An output file: its folder must exist and be writable, and it must not be a folder.
+void check_output_file(const fs::path& file, const std::string& option) {
+  if (fs::is_directory(file))
+    throw InputError(option, 0, 0, option, "'" + file.string() + "' is a folder, expected a file");
+  const fs::path dir = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir))
+    throw InputError(option, 0, 0, option, "the folder '" + dir.string() + "' does not exist");
+  if (::access(dir.c_str(), W_OK | X_OK) != 0 || (fs::exists(file) && ::access(file.c_str(), W_OK) != 0))
+    throw InputError(option, 0, 0, option, "cannot write '" + file.string() + "': " + std::strerror(errno));
+}
 
 // A command that needs OpenGL in a build without it.
 struct NoGraphics : std::runtime_error {
@@ -95,6 +134,7 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
                bool no_progress, bool strict, std::size_t mesh_every, const ImageArgs& image_args) {
   const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
   const Scenario scenario = load_scenario(scenario_path);
+  check_output_dir(out, "--out");
   fs::path log_path = log_arg;
   if (log_path.empty()) {
     if (!scenario.log)
@@ -151,6 +191,10 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   if (pictures) std::cout << "  wrote " << pictures->written().size() << " pictures in " << out << "\n";
 #endif
   if (!r.invariants_ok) return 1;
+  if (!r.failure.empty()) {
+    std::cerr << "error: " << r.failure << "\n";
+    return kExitSimulationFailed;
+  }
   // The session's warnings are errors under --strict; the frame rate's depends on the machine.
   return strict && !r.report["warnings"].empty() ? kExitStrict : 0;
 }
@@ -164,6 +208,8 @@ std::string slug(const std::string& name) {
 
 int cmd_check(const std::string& check_path, const std::string& out, const std::string& junit) {
   const CheckFile file = load_check_file(check_path);
+  check_output_dir(out, "--out");
+  if (!junit.empty()) check_output_file(junit, "--junit");
   std::vector<CheckOutcome> outcomes;
   bool broken = false, bad_input = false, failed_run = false;
   for (std::size_t i = 0; i < file.sessions.size(); ++i) {
@@ -182,6 +228,10 @@ int cmd_check(const std::string& check_path, const std::string& out, const std::
       const ReplayResult r = replay(scenario, cs.log.value_or(scenario.log.value_or(fs::path())), options);
       broken = broken || !r.invariants_ok;
       outcome.failures = unmet_expectations(file, cs, r.report, r.invariants_ok);
+      if (!r.failure.empty()) {
+        failed_run = true;
+        outcome.failures.push_back("the replay failed: " + r.failure);
+      }
     } catch (const InputError& e) {
       // A session that cannot be replayed fails; the others still run.
       bad_input = true;
@@ -213,7 +263,7 @@ int cmd_check(const std::string& check_path, const std::string& out, const std::
 // The instructor's pages: scripts/report.py (Python 3 and matplotlib) over replay outputs.
 // SCALPEL_PYTHON names the interpreter; else Debian's, where python3-matplotlib installs.
 int cmd_report(const std::vector<std::string>& sessions, const std::string& out) {
-  const fs::path script = fs::path(SCALPEL_SOURCE_DIR) / "scripts/report.py";
+  const fs::path script = bundled("scripts/report.py");
   if (!fs::exists(script)) throw std::runtime_error("the report script is missing: " + script.string());
   const char* env = std::getenv("SCALPEL_PYTHON");
   const std::string python =
@@ -337,6 +387,7 @@ int cmd_inspect(const std::string& path, bool as_json) {
 
 int cmd_make_log(const std::string& scenario_path, const std::string& out, const IncisionMotion& motion) {
   const Scenario scenario = load_scenario(scenario_path);
+  check_output_file(out, "--out");
   write_task_log(scenario, out, motion);
   std::cout << "wrote " << out << "\n";
   return 0;
@@ -359,19 +410,66 @@ int cmd_devices(const std::string& profiles_dir, bool all) {
 
 struct RecordArgs {
   std::string scenario, device, profiles_dir, serial, path, replay_log, out;
-  double duration = 0.0;
+  double duration = 0.0, wait = 0.0;
+  bool unpaced = false;
 };
+
+// Waits until the device the profile and selector name is attached, with its status on the
+// terminal; false when Ctrl-C or `wait_seconds` (0: no limit) ended the wait first.
+bool wait_for_device(const DeviceProfile& profile, const DeviceSelector& selector, double wait_seconds) {
+  const std::string wanted = wanted_device(profile, selector);
+  const auto t0 = std::chrono::steady_clock::now();
+  bool told = false;
+  while (find_devices(profile, selector).empty()) {
+    const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (g_stop.load() || (wait_seconds > 0.0 && waited >= wait_seconds)) {
+      if (told) std::fprintf(stderr, "\n");
+      std::cerr << "error: " << wanted << " is not attached (waited " << static_cast<int>(waited)
+                << " s); `scalpelsim devices --all` lists what is\n";
+      return false;
+    }
+    std::fprintf(stderr, "\rwaiting for %s: %d s (Ctrl-C stops)", wanted.c_str(), static_cast<int>(waited));
+    told = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+  if (told) std::fprintf(stderr, "\n");
+  return true;
+}
+
+// A pose log for a device to play back, with a word on the terminal when reading takes a while
+// and a warning when its last line is torn.
+std::vector<ToolSample> read_log_for_playback(const std::string& path) {
+  std::error_code ec;
+  const auto bytes = fs::file_size(path, ec);
+  const bool large = !ec && bytes > (16u << 20);
+  if (large) std::cerr << "reading " << path << " (" << (bytes >> 20) << " MB)...\n";
+  std::string torn;
+  std::vector<ToolSample> samples = read_pose_log(path, &torn);
+  if (large) std::cerr << "read " << samples.size() << " samples\n";
+  if (!torn.empty()) std::cerr << "warning: " << torn << "\n";
+  return samples;
+}
 
 int cmd_record(const RecordArgs& a) {
   const Scenario scenario = load_scenario(a.scenario);
+  check_output_file(a.out, "--out");
   std::unique_ptr<Device> device;
   std::string device_name = a.device;
-  bool virtual_clock = false;
+  RecordingOptions options;
+  options.loop.rate = scenario.device.rate;
+  options.queue_capacity = static_cast<std::size_t>(scenario.device.queue_capacity);
+  options.duration = a.duration;
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
   if (a.device == "mock") {
     if (a.replay_log.empty())
       throw InputError(a.scenario, 0, 0, "--replay", "the mock device needs --replay LOG");
-    device = std::make_unique<MockDevice>(read_pose_log(a.replay_log));
-    virtual_clock = true;
+    auto mock = std::make_unique<MockDevice>(read_log_for_playback(a.replay_log));
+    // Paced: the log plays at its own rate on the real clock, like the hand that recorded it.
+    options.virtual_clock = a.unpaced;
+    if (!a.unpaced && a.duration <= 0.0) options.duration = mock->duration() + 1.0 / options.loop.rate;
+    device = std::move(mock);
+    device_name = "mock";
   } else {
     const std::string name = a.device.empty() ? scenario.device.profile : a.device;
     if (name.empty())
@@ -379,28 +477,40 @@ int cmd_record(const RecordArgs& a) {
     const fs::path file =
         fs::path(name).has_extension() ? fs::path(name) : fs::path(a.profiles_dir) / (name + ".yaml");
     const DeviceProfile profile = load_device_profile(file.string());
-    device = open_device(profile, {a.serial, a.path});
+    const DeviceSelector selector{a.serial, a.path};
+    if (!a.path.empty() && profile.transport == Transport::Hid && !fs::exists(a.path))
+      throw InputError(
+          "--path", 0, 0, "--path",
+          "'" + a.path + "' does not exist; `scalpelsim devices --all` lists the devices' paths");
+    if (!wait_for_device(profile, selector, a.wait)) return kExitNoDevice;
+    for (const FoundDevice& d : find_devices(profile, selector))
+      if (const std::string problem = access_problem(d); !problem.empty()) {
+        std::cerr << "error: " << problem << "\n";
+        return kExitNoDevice;
+      }
+    device = open_device(profile, selector);
     device_name = profile.name;
   }
   char rate[32];
   std::snprintf(rate, sizeof rate, "%g Hz", scenario.device.rate);
   PoseLogWriter writer(a.out, {{"device", device_name}, {"scenario", scenario.name}, {"rate", rate}}, true);
+  if (!options.virtual_clock)
+    std::cerr << "recording " << device_name << " to " << a.out
+              << (a.device == "mock" ? " at the log's pace" : "") << "; Ctrl-C stops\n";
   ForceChannel forces;
-  RecordingOptions options;
-  options.loop.rate = scenario.device.rate;
-  options.virtual_clock = virtual_clock;
-  options.queue_capacity = static_cast<std::size_t>(scenario.device.queue_capacity);
-  options.duration = a.duration;
-  std::signal(SIGINT, on_interrupt);
-  std::signal(SIGTERM, on_interrupt);
-  if (!virtual_clock) std::cerr << "recording " << device_name << " to " << a.out << "; Ctrl-C stops\n";
   const RecordingResult r = record_session(
       *device, forces, options, [&](const ToolSample& s) { writer.write(s); }, [&] { writer.flush(); },
       g_stop);
+  writer.sync();
   if (!r.warning.empty()) std::cerr << "warning: " << r.warning << "\n";
   std::cout << "recorded " << r.samples << " samples to " << a.out << " (" << r.flushes << " flushes, "
             << r.device.short_reports + r.device.malformed_reports << " bad reports skipped, "
             << r.device.rejected_poses << " poses rejected)\n";
+  if (r.samples == 0 || r.loop.device_not_ok == r.loop.cycles) {
+    std::cerr << "error: nothing was recorded: " << device_name
+              << " gave no pose (it sent no report the profile decodes, or was unplugged)\n";
+    return kExitNoDevice;
+  }
   return 0;
 }
 
@@ -452,7 +562,7 @@ int cmd_train(const TrainArgs& a) {
     if (log.empty() && scenario.log) log = *scenario.log;
     if (log.empty())
       throw InputError(scenario_path.string(), 0, 0, "--replay", "--device mock needs --replay LOG");
-    auto p = std::make_unique<PlaybackDevice>(read_pose_log(log.string()));
+    auto p = std::make_unique<PlaybackDevice>(read_log_for_playback(log.string()));
     p->set_speed(a.speed);
     playback = p.get();
     device = std::move(p);
@@ -506,11 +616,29 @@ int cmd_train(const TrainArgs& a) {
 #endif
 }
 
+// Every usage error exits 2 (README) with what went wrong and where to look; CLI11's own codes
+// differ by error.
+int usage_error(const CLI::App& app, int argc, char** argv, const CLI::ParseError& e) {
+  // A first word that is no command: CLI11 would only say that a subcommand is required.
+  if (argc > 1 && argv[1][0] != '-' && app.get_subcommands().empty()) {
+    std::string names;
+    for (const CLI::App* sub : app.get_subcommands({}))
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    std::cerr << "error: '" << argv[1] << "' is not a command; the commands are " << names
+              << " (scalpelsim --help)\n";
+    return kExitUsage;
+  }
+  std::string where = "scalpelsim";
+  for (const CLI::App* sub : app.get_subcommands()) where += " " + sub->get_name();
+  std::cerr << "error: " << e.what() << "\nsee: " << where << " --help\n";
+  return kExitUsage;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"scalpelsim: real-time progressive cutting of tetrahedral meshes"};
-  app.set_version_flag("--version", std::string(version()));
+  app.set_version_flag("--version", std::string(version()) + " (" + build_description() + ")");
   app.require_subcommand(1);
 
   std::string scenario, log, out = "out", mesh_path, make_log_out;
@@ -608,6 +736,12 @@ int main(int argc, char** argv) {
   record_cmd->add_option("--path", rec.path, "Open the device at this path");
   record_cmd->add_option("--replay", rec.replay_log, "With --device mock: the log the mock device replays");
   record_cmd->add_option("--profiles", rec.profiles_dir, "Folder of device profiles")->capture_default_str();
+  record_cmd
+      ->add_option("--wait", rec.wait,
+                   "Seconds to wait for the device to be attached (default: until it is, or Ctrl-C)")
+      ->check(CLI::NonNegativeNumber);
+  record_cmd->add_flag("--unpaced", rec.unpaced,
+                       "With --device mock: record as fast as possible instead of at the log's pace");
 
   TrainArgs tr;
   tr.profiles_dir = profiles_dir;
@@ -636,7 +770,17 @@ int main(int argc, char** argv) {
   train_cmd->add_flag("--see-through", tr.transparent, "Start with the skin see-through");
   train_cmd->add_flag("--tetrahedra", tr.wireframe, "Start with the tetrahedra's edges drawn");
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    return usage_error(app, argc, argv, e);
+  }
   try {
     if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, mesh_every, image_args);
     if (*validate_cmd) return cmd_validate(scenario, strict);

@@ -36,6 +36,8 @@ constexpr double kWoundWindow = 4e-3;
 // A node displaced by more than this fraction of the mesh's diagonal is a warning: skin gapes and is
 // dragged by millimetres, not by a fifth of the patch.
 constexpr double kDisplacementLimit = 0.2;
+// [s] The longest time between two samples of an interpolated log (docs/formats.md).
+constexpr double kMaxSampleGap = 10.0;
 
 json percentiles(const std::vector<double>& v, double scale) {
   json j;
@@ -190,6 +192,7 @@ std::vector<InputWarning> scenario_warnings(const Scenario& scenario, const TetM
 ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_path,
                     const ReplayOptions& options) {
   const auto wall_start = std::chrono::steady_clock::now();
+  ReplayResult result;
   // A live session's recording is played sample by sample, in the frames that took them
   // (docs/formats.md).
   std::vector<ToolSample> log;
@@ -213,9 +216,17 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     if (verbatim && !reader.has_frame())
       throw InputError(log_path.string(), 0, 0, "playback", "verbatim playback needs the frame column");
     for (ToolSample s; reader.next(s);) {
+      // Interpolated playback steps the tissue through every frame between two samples: a gap is
+      // a recording fault, not a pause (a live session's pause is in its verbatim frames).
+      if (!verbatim && !log.empty() && s.t - log.back().t > kMaxSampleGap)
+        throw InputError(log_path.string(), reader.line(), 0, "t",
+                         "the log jumps " + std::to_string(s.t - log.back().t) +
+                             " s after the sample before; interpolated playback allows at most " +
+                             std::to_string(static_cast<int>(kMaxSampleGap)) + " s between samples");
       log.push_back(s);
       if (verbatim) sample_frames.push_back(reader.frame());
     }
+    if (reader.torn_line() != 0) warn("log_torn", reader.torn_warning());
     if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
     if (verbatim) {
       // The session's frames, also those after its last sample (the trailer a finished session
@@ -422,6 +433,12 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       max_residual = std::max(max_residual, st.residual);
     }
     const double n = std::max<double>(1.0, static_cast<double>(steps.size()));
+    for (const StepStats& st : steps)
+      if (st.status == StepStatus::NonFinite) {
+        result.failure = "the tissue solve failed in " + std::to_string(non_finite) + " of " +
+                         std::to_string(steps.size()) + " steps (the first: " + st.message + ")";
+        break;
+      }
     report["tissue"] = {
         {"model", to_string(scenario.tissue.model)},
         {"rate", scenario.tissue.rate},
@@ -465,11 +482,16 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   for (std::size_t k = 0; k < sim.tissue_step_seconds().size(); ++k)
     (sim.tissue_step_after_cut()[k] ? after_cut : without_cut).push_back(sim.tissue_step_seconds()[k]);
   json run;
+  // The program's version and build belong here, not in report.json: a report is the same from
+  // build to build, so CI can compare it with a stored hash.
 #ifdef SCALPEL_VALIDATE
-  run["build"] = {{"invariants_checked_after_every_step", true}};
+  constexpr bool kInvariantsChecked = true;
 #else
-  run["build"] = {{"invariants_checked_after_every_step", false}};
+  constexpr bool kInvariantsChecked = false;
 #endif
+  run["build"] = {{"version", version()},
+                  {"build", build_description()},
+                  {"invariants_checked_after_every_step", kInvariantsChecked}};
   run["timings"] = {
       {"cut_step_us", percentiles(sim.cut_step_seconds(), 1e6)},
       {"tissue_step_ms", percentiles(sim.tissue_step_seconds(), 1e3)},
@@ -505,7 +527,10 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     pvd << "  </Collection>\n</VTKFile>\n";
     if (!pvd) throw std::runtime_error("cannot write " + (options.out_dir / "mesh.pvd").string());
   }
-  return {report, run, check.ok()};
+  result.report = std::move(report);
+  result.run = std::move(run);
+  result.invariants_ok = check.ok();
+  return result;
 }
 
 }  // namespace scalpel

@@ -39,6 +39,9 @@ struct ReplayResult {
   // build's checks, the frame-rate warning).
   nlohmann::ordered_json run;
   bool invariants_ok = false;
+  // What made the run fail although it ran to the end: tissue steps that met NaN or infinity (the
+  // tissue then stood still where it was last good). Empty when none did.
+  std::string failure;
 };
 
 // What makes a scenario's figures doubtful before it runs (docs/formats.md, `warnings`): a mesh

@@ -25,9 +25,12 @@ namespace fs = std::filesystem;
 namespace {
 
 // Sanity bounds that catch millimetres written as metres and meshes too large to simulate.
-constexpr int kMaxCellsPerAxis = 1000;      // hexahedral cells along one axis
-constexpr long long kMaxCells = 2'000'000;  // hexahedral cells of a generated mesh
-constexpr double kUnitTolerance = 1e-6;     // |q| - 1 of a rotation given as a quaternion
+constexpr int kMaxCellsPerAxis = 1000;  // hexahedral cells along one axis
+// Tetrahedra of a generated mesh: a replay holds about 2.2 kB per tetrahedron (mesh, cutter and
+// tissue), so the limit keeps one within about 4.4 GB; beyond it a replay would run out of memory
+// minutes in instead of being refused here.
+constexpr long long kMaxTetrahedra = 2'000'000;
+constexpr double kUnitTolerance = 1e-6;  // |q| - 1 of a rotation given as a quaternion
 
 std::string region_list(const RegionIds& names) {
   std::vector<std::string> n;
@@ -64,6 +67,15 @@ class Parser : public YamlReader {
 };
 
 // ---- mesh -----------------------------------------------------------------------------------------
+
+// A generated mesh of `cells` cells split into tetrahedra, against kMaxTetrahedra.
+void check_size(const Parser& p, const Value& where, long long cells, CubeSplit split) {
+  const long long tets = cells * static_cast<long long>(split);
+  if (tets > kMaxTetrahedra)
+    p.fail(where, std::to_string(cells) + " cells make " + std::to_string(tets) +
+                      " tetrahedra, more than the " + std::to_string(kMaxTetrahedra) +
+                      " a scenario may hold (a replay needs about 2.2 kB each)");
+}
 
 CubeSplit split_of(const Parser& p, const Map& m) {
   const auto v = m.get("split");
@@ -110,9 +122,9 @@ void Parser::mesh(const Value& v, MeshSource& out) const {
                        ", expected 0 < max - min <= " + max_length + " [m]");
     }
     out.box.cells = integers<3>(vcells, 1, kMaxCellsPerAxis);
-    if (static_cast<long long>(out.box.cells[0]) * out.box.cells[1] * out.box.cells[2] > kMaxCells)
-      fail(vcells, "more than " + std::to_string(kMaxCells) + " cells");
     out.box.split = split_of(*this, m);
+    check_size(*this, vcells, static_cast<long long>(out.box.cells[0]) * out.box.cells[1] * out.box.cells[2],
+               out.box.split);
     out.box.region = 0;
     if (const auto r = m.get("region")) {
       out.box_region = string(*r);
@@ -157,8 +169,7 @@ void Parser::mesh(const Value& v, MeshSource& out) const {
   }
   if (depth > kMaxScenarioLength)
     fail(vlayers, "total thickness " + format(depth) + " exceeds " + max_length + " [m]");
-  if (layer_cells * out.slab.cells[0] * out.slab.cells[1] > kMaxCells)
-    fail(vcells, "more than " + std::to_string(kMaxCells) + " cells");
+  check_size(*this, vcells, layer_cells * out.slab.cells[0] * out.slab.cells[1], out.slab.split);
 }
 
 // ---- materials ------------------------------------------------------------------------------------
@@ -173,11 +184,11 @@ void Parser::materials(const Value& v, Scenario& s) const {
     rm.region = region;
     rm.where = yaml_location(rv.key_mark);
     Material& mat = rm.material;
-    mat.young = positive(r.require("young"));
+    mat.young = positive(r.require("young"), 1e12);  // [Pa]: stiffer than any tissue, bone included
     const Value vp = r.require("poisson");
     mat.poisson = number(vp);
     check(vp, mat.poisson > -1.0 && mat.poisson < 0.5, "-1 < poisson < 0.5");
-    if (const auto d = r.get("density")) mat.density = positive(*d);
+    if (const auto d = r.get("density")) mat.density = positive(*d, 1e5);  // [kg/m^3]
     if (const auto d = r.get("damping")) {
       const Map dm(*this, *d);
       dm.only({"mass", "stiffness"});
@@ -218,7 +229,10 @@ void Parser::tissue(const Value& v, TissueSection& out) const {
     if (const auto i = sm.get("local_rings")) out.local_rings = in_range(*i, integer(*i), 0, 64);
     if (const auto i = sm.get("threads")) out.threads = in_range(*i, integer(*i), 1, 64);
   }
-  if (const auto x = m.get("gravity")) out.gravity = vector<3>(*x);
+  if (const auto x = m.get("gravity")) {
+    out.gravity = vector<3>(*x);
+    check(*x, out.gravity.norm() <= 1000.0, "|gravity| <= 1000 [m/s^2]");
+  }
   if (const auto x = m.get("volume_springs")) {
     out.volume_springs = boolean(*x);
     if (out.model != TissueKind::MassSpring) fail(x->key_mark, x->path, "applies to model: mass_spring only");
@@ -327,8 +341,12 @@ void Parser::device(const Value& v, DeviceSettings& out) const {
 void Parser::simulation(const Value& v, SimulationSettings& out) const {
   const Map m(*this, v);
   m.only({"visual_rate", "duration", "cut_recursion_depth"});
-  if (const auto x = m.get("visual_rate")) out.visual_rate = positive(*x, 1000.0);
-  if (const auto x = m.get("duration")) out.duration = positive(*x);
+  if (const auto x = m.get("visual_rate")) {
+    out.visual_rate = number(*x);
+    // Below 10 Hz a frame is no longer a frame (and a step of the tissue spans a tenth of a second).
+    check(*x, out.visual_rate >= 10.0 && out.visual_rate <= 1000.0, "10 <= visual_rate <= 1000 [Hz]");
+  }
+  if (const auto x = m.get("duration")) out.duration = positive(*x, kMaxSessionSeconds);
   if (const auto x = m.get("cut_recursion_depth")) out.cut_recursion_depth = in_range(*x, integer(*x), 0, 32);
 }
 

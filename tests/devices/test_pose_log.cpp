@@ -29,13 +29,13 @@ std::vector<ToolSample> tricky_samples(bool with_force) {
     s.position = Eigen::Vector3d(u(rng), u(rng) * 1e-3, u(rng) * 1e-9);
     s.orientation = Eigen::Quaterniond(u(rng), u(rng), u(rng), u(rng)).normalized();
     s.buttons = static_cast<std::uint32_t>(i % 7);
-    if (with_force) s.force = Eigen::Vector3d(u(rng), u(rng) * 1e5, u(rng) * 1e-5);
+    if (with_force) s.force = Eigen::Vector3d(u(rng), u(rng) * 999.0, u(rng) * 1e-5);
     out.push_back(s);
   }
   // Values whose decimal form is the hard case for round trips.
   out[3].position = Eigen::Vector3d(0.1, 1.0 / 3.0, -0.0);
-  out[4].position = Eigen::Vector3d(std::numeric_limits<double>::denorm_min(), 1e-300, -1e300);
-  out[5].position = Eigen::Vector3d(std::nextafter(0.3, 1.0), 5e-324, 123456789.123456789);
+  out[4].position = Eigen::Vector3d(std::numeric_limits<double>::denorm_min(), 1e-300, -99.99999999999999);
+  out[5].position = Eigen::Vector3d(std::nextafter(0.3, 1.0), 5e-324, 12.3456789123456789);
   out[6].buttons = std::numeric_limits<std::uint32_t>::max();
   return out;
 }
@@ -218,6 +218,12 @@ TEST_CASE("pose log: every violation names the line and the field") {
        "bad header"},
       {"bad frame", kFrameHead + "0.1,0,0,0,1,0,0,0,0,0,0,0,x\n", 3, "frame", "not a frame number"},
       {"negative frame", kFrameHead + "0.1,0,0,0,1,0,0,0,0,0,0,0,-1\n", 3, "frame", "not a frame number"},
+      {"time beyond the log's range", kHead + "1e300,0,0,0,1,0,0,0,0\n", 4, "t", "time range"},
+      {"samples a nanosecond apart", kHead + ok + "0.001000001,0,0,0,1,0,0,0,0\n", 5, "t", "1 microsecond"},
+      {"a position far off", kHead + ok + "0.002,0,1e300,0,1,0,0,0,0\n", 5, "y", "100 m"},
+      {"a force beyond any device",
+       "# scalpelsim-log 1\nt,x,y,z,qw,qx,qy,qz,buttons,fx,fy,fz\n0.1,0,0,0,1,0,0,0,0,1,2,-3e4\n", 3, "fz",
+       "force range"},
       {"frame going back", kFrameHead + "0.1,0,0,0,1,0,0,0,0,0,0,0,2\n0.2,0,0,0,1,0,0,0,0,0,0,0,1\n", 4,
        "frame", "must not decrease"},
   };
@@ -229,6 +235,30 @@ TEST_CASE("pose log: every violation names the line and the field") {
     CHECK(e.field() == c.field);
     CHECK(std::string(e.what()).find(c.message_part) != std::string::npos);
   }
+}
+
+TEST_CASE("pose log: a last line without its newline is torn: skipped with a warning, the rest kept") {
+  // A recorder killed while writing a line leaves it without its newline, and possibly without
+  // digits that still parse ("0.0123" cut to "0.01"): such a line is never taken as a sample.
+  for (const std::string tail : {"0.003,0,0,0.1", "0.003,0,0,0,1,0,0,0,0", "# frames: 1"}) {
+    CAPTURE(tail);
+    std::istringstream in(kHead + "0.001,0,0,0,1,0,0,0,0\n0.002,0,0,0,1,0,0,0,0\n" + tail);
+    PoseLogReader reader(in, "killed.csv");
+    std::size_t n = 0;
+    for (ToolSample s; reader.next(s);) ++n;
+    CHECK(n == 2);
+    CHECK(reader.torn_line() == 6);
+    CHECK(reader.torn_warning() ==
+          "killed.csv:6: the last line has no newline (a recording cut short while "
+          "writing it); skipped");
+    CHECK_FALSE(reader.metadata("frames").has_value());
+  }
+  std::istringstream whole(kHead + "0.001,0,0,0,1,0,0,0,0\n");
+  PoseLogReader reader(whole, "whole.csv");
+  for (ToolSample s; reader.next(s);) {
+  }
+  CHECK(reader.torn_line() == 0);
+  CHECK(reader.torn_warning().empty());
 }
 
 TEST_CASE("pose log: the column of a bad field is reported") {
@@ -254,6 +284,11 @@ TEST_CASE("pose log: the writer refuses samples the reader would reject") {
   s.orientation = Eigen::Quaterniond::Identity();
   s.position.x() = std::numeric_limits<double>::quiet_NaN();
   CHECK_THROWS_AS(writer.write(s), std::invalid_argument);
+  s.position.x() = 1e300;
+  CHECK_THROWS_AS(writer.write(s), std::invalid_argument);  // beyond 100 m
+  s.position.x() = 0.0;
+  s.t = 1.0 + 1e-9;
+  CHECK_THROWS_AS(writer.write(s), std::invalid_argument);  // under a microsecond after the last
   CHECK(writer.samples_written() == 1);
   std::stringstream bad_meta;
   CHECK_THROWS_AS(PoseLogWriter(bad_meta, "memory", {{"a:b", "c"}}), std::invalid_argument);

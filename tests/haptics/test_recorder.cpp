@@ -4,13 +4,20 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <sys/stat.h>
+
+#include <sched.h>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <random>
 
 #include "devices/mock_device.hpp"
+#include "devices/pose_log.hpp"
 #include "haptics/recorder.hpp"
-#include "tests/haptics/csv_log.hpp"
 
 using namespace scalpel;
 
@@ -69,14 +76,14 @@ TEST_CASE("a recorded session replays to the same samples exactly") {
     MockDevice source(stroke(0.8, 0.00043));  // an odd period: the recording interpolates
     ForceChannel forces;
     forces.publish(contact_model());
-    test::CsvLogSink sink(path);
+    PoseLogWriter sink(path, {{"device", "test"}}, true);
     rec = record_session(
         source, forces, virtual_options(0.5), [&](const ToolSample& s) { sink.write(s); },
         [&] { sink.flush(); }, stop);
   }
   CHECK(rec.samples == 500);
   CHECK(rec.flushes == 11);  // every 50 ms, and at the end
-  const std::vector<ToolSample> recorded = test::read_csv_log(path);
+  const std::vector<ToolSample> recorded = read_pose_log(path);
   REQUIRE(recorded.size() == 500);
   bool any_force = false;
   for (const ToolSample& s : recorded) any_force |= !s.force.isZero();
@@ -102,52 +109,93 @@ TEST_CASE("a recorded session replays to the same samples exactly") {
   std::filesystem::remove(path);
 }
 
-TEST_CASE("a recorder killed mid-session leaves a log readable up to its last flush") {
-  const std::string path = temp_path("killed.csv");
-  int pipe_fd[2];
-  REQUIRE(::pipe(pipe_fd) == 0);
-  const pid_t child = ::fork();
-  REQUIRE(child >= 0);
-  if (child == 0) {
-    // Records in real time, tells the parent after every flush, and is killed before it ends.
-    ::close(pipe_fd[0]);
-    MockDevice device(stroke(120.0, 0.001));
-    ForceChannel forces;
-    forces.publish(contact_model());
-    test::CsvLogSink sink(path);
-    RecordingOptions o;
-    o.duration = 120.0;
-    o.flush_interval = 0.01;
-    o.loop.realtime_priority = false;
-    o.loop.max_force = 3.0;
-    o.loop.max_force_rate = 800.0;
-    o.loop.stall_timeout = 1e9;
-    const std::atomic<bool> stop{false};
-    (void)record_session(
-        device, forces, o, [&](const ToolSample& s) { sink.write(s); },
-        [&] {
-          sink.flush();
-          const char c = 'f';
-          if (::write(pipe_fd[1], &c, 1) != 1) ::_exit(3);
-        },
-        stop);
-    ::_exit(2);  // not reached within the test
-  }
-  ::close(pipe_fd[1]);
-  char c = 0;
-  int flushes = 0;
-  while (flushes < 5 && ::read(pipe_fd[0], &c, 1) == 1) ++flushes;
-  REQUIRE(flushes == 5);
-  REQUIRE(::kill(child, SIGKILL) == 0);
-  int status = 0;
-  REQUIRE(::waitpid(child, &status, 0) == child);
-  ::close(pipe_fd[0]);
-  CHECK(WIFSIGNALED(status));
-  CHECK(WTERMSIG(status) == SIGKILL);
+namespace {
 
-  std::vector<ToolSample> log;
-  CHECK_NOTHROW(log = test::read_csv_log(path));
-  CHECK(log.size() >= 5);  // at least one sample per flush interval of 10 ms
-  for (const ToolSample& s : log) CHECK(is_valid(s));
-  std::filesystem::remove(path);
+// Records `source` on the virtual clock through the program's pose log writer, flushing every
+// 5 ms of session time; the process ends with the recording.
+[[noreturn]] void record_in_child(const std::vector<ToolSample>& source, const std::string& path) {
+  MockDevice device(source);
+  ForceChannel forces;
+  forces.publish(contact_model());
+  PoseLogWriter writer(path, {{"device", "test"}}, true);
+  RecordingOptions o = virtual_options(0.0);
+  o.flush_interval = 0.005;
+  const std::atomic<bool> stop{false};
+  (void)record_session(
+      device, forces, o, [&](const ToolSample& s) { writer.write(s); }, [&] { writer.flush(); }, stop);
+  ::_exit(0);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::size_t file_size(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 ? static_cast<std::size_t>(st.st_size) : 0;
+}
+
+}  // namespace
+
+TEST_CASE("a recorder killed at random moments leaves a log that replays up to where it stopped") {
+  // Real SIGKILLs: a child process records through the program's writer, the parent kills it once
+  // the file has grown past a size drawn from a seeded generator, and then reads what is left.
+  const std::vector<ToolSample> source = stroke(8.0, 0.001);
+  const std::string full_path = temp_path("full.csv");
+  {
+    const pid_t child = ::fork();
+    REQUIRE(child >= 0);
+    if (child == 0) record_in_child(source, full_path);
+    int status = 0;
+    REQUIRE(::waitpid(child, &status, 0) == child);
+    REQUIRE(WIFEXITED(status));
+  }
+  const std::vector<ToolSample> full = read_pose_log(full_path);
+  REQUIRE(full.size() == source.size());
+  const std::string full_text = read_text(full_path);
+  const std::size_t full_bytes = full_text.size();
+
+  std::mt19937_64 rng(0x5ca1);
+  int killed = 0, torn = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    CAPTURE(trial);
+    const std::string path = temp_path("killed_" + std::to_string(trial) + ".csv");
+    const std::size_t at = std::uniform_int_distribution<std::size_t>(0, full_bytes * 9 / 10)(rng);
+    const pid_t child = ::fork();
+    REQUIRE(child >= 0);
+    if (child == 0) record_in_child(source, path);
+    int status = 0;
+    pid_t done = 0;
+    while ((done = ::waitpid(child, &status, WNOHANG)) == 0 && file_size(path) < at) ::sched_yield();
+    if (done == 0) {
+      REQUIRE(::kill(child, SIGKILL) == 0);
+      REQUIRE(::waitpid(child, &status, 0) == child);
+    }
+    killed += WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL ? 1 : 0;
+
+    // Every whole line is a sample of the full recording, in order, bit for bit.
+    PoseLogReader reader(path);
+    std::size_t k = 0, mismatches = 0;
+    for (ToolSample s; reader.next(s); ++k) {
+      REQUIRE(k < full.size());
+      const ToolSample& e = full[k];
+      mismatches +=
+          !(s.t == e.t && s.position == e.position && s.orientation.coeffs() == e.orientation.coeffs() &&
+            s.buttons == e.buttons && s.force == e.force);
+    }
+    CHECK(mismatches == 0);
+    // The file is the full recording's first bytes, and every sample in them was read: the
+    // magic line, the metadata and the header are its first three lines.
+    const std::string text = read_text(path);
+    CHECK(text.size() >= std::min(at, full_text.size()));
+    CHECK(full_text.compare(0, text.size(), text) == 0);
+    const auto lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+    CHECK(k == (lines >= 3 ? lines - 3 : 0));
+    torn += reader.torn_line() != 0 ? 1 : 0;
+    std::filesystem::remove(path);
+  }
+  MESSAGE(killed << " of 40 recorders killed, " << torn << " logs ended in a torn line");
+  CHECK(killed >= 30);
+  std::filesystem::remove(full_path);
 }
