@@ -24,4 +24,14 @@ InputError::InputError(std::string file, int line, int column, std::string field
       column_(column),
       field_(std::move(field)) {}
 
+InputErrors::InputErrors(std::vector<InputError> all) : InputError(all.at(0)), all_(std::move(all)) {
+  for (const InputError& e : all_) text_.append(text_.empty() ? "" : "\n").append(e.InputError::what());
+}
+
+void throw_input_errors(std::vector<InputError> errors) {
+  if (errors.empty()) return;
+  if (errors.size() == 1) throw InputError(errors.front());
+  throw InputErrors(std::move(errors));
+}
+
 }  // namespace scalpel

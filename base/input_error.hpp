@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace scalpel {
 
@@ -22,5 +23,22 @@ class InputError : public std::runtime_error {
   int column_;
   std::string field_;
 };
+
+// Several errors of one input, found in one reading (a scenario checks every section): the first
+// is the InputError's own file, line and field; what() lists them all, one per line.
+class InputErrors : public InputError {
+ public:
+  explicit InputErrors(std::vector<InputError> all);
+
+  [[nodiscard]] const std::vector<InputError>& all() const { return all_; }
+  [[nodiscard]] const char* what() const noexcept override { return text_.c_str(); }
+
+ private:
+  std::vector<InputError> all_;
+  std::string text_;
+};
+
+// Throws nothing for none, the error itself for one, InputErrors for more.
+void throw_input_errors(std::vector<InputError> errors);
 
 }  // namespace scalpel

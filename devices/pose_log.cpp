@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "base/input_error.hpp"
+#include "base/input_file.hpp"
 
 namespace scalpel {
 
@@ -81,7 +82,10 @@ char* put(char* p, char* end, double v) {
 
 // ---- reader ---------------------------------------------------------------------------------------
 
-PoseLogReader::PoseLogReader(const std::string& path) : file_(path), in_(&file_), name_(path) {
+PoseLogReader::PoseLogReader(const std::string& path) : name_(path) {
+  check_input_file(path, "pose log", kPoseLogMaxBytes);
+  file_.open(path);
+  in_ = &file_;
   if (!file_) throw InputError(path, 0, 0, "", "cannot open pose log");
   read_preamble();
 }

@@ -40,6 +40,8 @@ inline constexpr double kPoseLogMaxTime = 1e6;          // [s], about 11.6 days
 inline constexpr double kPoseLogMinStep = 1e-6;         // [s]
 inline constexpr double kPoseLogMaxCoordinate = 100.0;  // [m]
 inline constexpr double kPoseLogMaxForce = 1e3;         // [N]
+// A log of 4 GiB holds about eight hours at 1 kHz.
+inline constexpr std::uintmax_t kPoseLogMaxBytes = std::uintmax_t{4} << 30;
 // Tolerance on |q| - 1 for the orientation of every sample.
 inline constexpr double kPoseLogUnitTolerance = 1e-6;
 

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "base/input_error.hpp"
+#include "base/input_file.hpp"
 #include "mesh/io/xml.hpp"
 #include "sim/yaml_reader.hpp"
 
@@ -27,12 +28,9 @@ std::size_t count(const YamlReader& r, const YamlValue& v) {
 }  // namespace
 
 CheckFile load_check_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), 0, 0, "", "cannot open the check file");
-  std::stringstream text;
-  text << in.rdbuf();
+  const std::string text = read_input_file(path.string(), "check", 16u << 20);
   const YamlReader r(path.string());
-  const std::optional<YamlValue> root = r.root(text.str());
+  const std::optional<YamlValue> root = r.root(text);
   if (!root || !root->node.IsMap())
     throw InputError(path.string(), 0, 0, "", "expected a map with `sessions`");
   const YamlMap top(r, *root);

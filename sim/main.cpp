@@ -792,9 +792,13 @@ int main(int argc, char** argv) {
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
     if (*record_cmd) return cmd_record(rec);
     if (*train_cmd) return cmd_train(tr);
+  } catch (const InputErrors& e) {
+    for (const InputError& one : e.all()) std::cerr << "error: " << one.InputError::what() << "\n";
+    std::cerr << e.all().size() << " errors\n";
+    return kExitUsage;
   } catch (const InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
-    return 2;
+    return kExitUsage;
   } catch (const NoGraphics& e) {
     std::cerr << "error: " << e.what() << "\n";
     return kExitNoGraphics;

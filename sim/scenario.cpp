@@ -15,6 +15,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "base/input_error.hpp"
+#include "base/input_file.hpp"
 #include "sim/task_config.hpp"
 #include "sim/yaml_reader.hpp"
 
@@ -30,7 +31,8 @@ constexpr int kMaxCellsPerAxis = 1000;  // hexahedral cells along one axis
 // tissue), so the limit keeps one within about 4.4 GB; beyond it a replay would run out of memory
 // minutes in instead of being refused here.
 constexpr long long kMaxTetrahedra = 2'000'000;
-constexpr double kUnitTolerance = 1e-6;  // |q| - 1 of a rotation given as a quaternion
+constexpr std::uintmax_t kMaxScenarioBytes = 16u << 20;  // a scenario is a page or two of YAML
+constexpr double kUnitTolerance = 1e-6;                  // |q| - 1 of a rotation given as a quaternion
 
 std::string region_list(const RegionIds& names) {
   std::vector<std::string> n;
@@ -401,28 +403,63 @@ Scenario Parser::parse(const std::string& text) const {
   const std::optional<Value> root = this->root(text);
   if (!root) throw InputError(file(), 0, 0, "", "the scenario is empty");
   const Map top(*this, *root);
-  top.only({"name", "description", "mesh", "materials", "tissue", "fixed", "tool", "device", "simulation",
-            "task", "log"});
+  // Every section is read whatever the others hold, so one run reports all their errors.
+  std::vector<InputError> errors;
+  const auto read = [&errors](const auto& section) {
+    try {
+      section();
+      return true;
+    } catch (const InputError& e) {
+      errors.push_back(e);
+      return false;
+    }
+  };
+  (void)read([&] {
+    top.only({"name", "description", "mesh", "materials", "tissue", "fixed", "tool", "device", "simulation",
+              "task", "log"});
+  });
 
   Scenario s;
   s.file = file();
-  s.name = string(top.require("name"));
-  if (const auto x = top.get("description")) s.description = string(*x);
-  mesh(top.require("mesh"), s.mesh);
-  materials(top.require("materials"), s);
-  if (const auto x = top.get("tissue")) tissue(*x, s.tissue);
-  if (const auto x = top.get("fixed")) fixed(*x, s.fixed);
-  if (const auto x = top.get("tool")) tool(*x, s.tool);
-  if (const auto x = top.get("device")) device(*x, s.device);
-  if (const auto x = top.get("simulation")) simulation(*x, s.simulation);
-  if (const auto x = top.get("task")) s.task = read_task(*this, *x);
-  if (const auto x = top.get("log")) {
-    const std::string p = string(*x);
-    if (p.empty()) fail(*x, "expected a file path");
-    s.log = resolve(p);
-  }
-  s.materials_where = yaml_location(top.require("materials").key_mark);
-  check_against_mesh(s, top);
+  (void)read([&] { s.name = string(top.require("name")); });
+  (void)read([&] {
+    if (const auto x = top.get("description")) s.description = string(*x);
+  });
+  bool whole = read([&] { mesh(top.require("mesh"), s.mesh); });
+  whole = read([&] { materials(top.require("materials"), s); }) && whole;
+  (void)read([&] {
+    if (const auto x = top.get("tissue")) tissue(*x, s.tissue);
+  });
+  (void)read([&] {
+    if (const auto x = top.get("fixed")) fixed(*x, s.fixed);
+  });
+  (void)read([&] {
+    if (const auto x = top.get("tool")) tool(*x, s.tool);
+  });
+  (void)read([&] {
+    if (const auto x = top.get("device")) device(*x, s.device);
+  });
+  (void)read([&] {
+    if (const auto x = top.get("simulation")) simulation(*x, s.simulation);
+  });
+  whole = read([&] {
+            if (const auto x = top.get("task")) s.task = read_task(*this, *x);
+          }) &&
+          whole;
+  (void)read([&] {
+    if (const auto x = top.get("log")) {
+      const std::string p = string(*x);
+      if (p.empty()) fail(*x, "expected a file path");
+      s.log = resolve(p);
+    }
+  });
+  // The checks against the mesh need the mesh, the materials and the task read whole.
+  if (whole)
+    (void)read([&] {
+      s.materials_where = yaml_location(top.require("materials").key_mark);
+      check_against_mesh(s, top);
+    });
+  throw_input_errors(std::move(errors));
   return s;
 }
 
@@ -431,11 +468,8 @@ Scenario Parser::parse(const std::string& text) const {
 // ---- public API --------------------------------------------------------------------------------------
 
 Scenario load_scenario(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), 0, 0, "", "cannot open scenario file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  Scenario s = parse_scenario(text.str(), path.string(), path.parent_path());
+  const std::string text = read_input_file(path.string(), "scenario", kMaxScenarioBytes);
+  Scenario s = parse_scenario(text, path.string(), path.parent_path());
   s.file = path;
   return s;
 }

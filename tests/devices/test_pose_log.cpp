@@ -269,6 +269,10 @@ TEST_CASE("pose log: the column of a bad field is reported") {
 
 TEST_CASE("pose log: a missing file is an InputError naming it") {
   CHECK_THROWS_AS(PoseLogReader("/nonexistent/scalpelsim/log.csv"), InputError);
+  // /dev/zero would be read forever, a folder reads as nothing.
+  CHECK_THROWS_WITH_AS(PoseLogReader("/dev/zero"), doctest::Contains("/dev/zero: is not a regular file"),
+                       InputError);
+  CHECK_THROWS_WITH_AS(PoseLogReader("/tmp"), doctest::Contains("is a folder"), InputError);
 }
 
 TEST_CASE("pose log: the writer refuses samples the reader would reject") {

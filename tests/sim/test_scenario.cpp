@@ -272,6 +272,16 @@ TEST_CASE("scenario: each schema error names the file, line, column and key path
       {"negative damping", with_line(12, "    poisson: 0.45\n    damping: {mass: -1}"), 13, 21,
        "materials.top.damping.mass", "out of range"},
       {"non-finite number", with_line(14, "    young: .inf"), 14, 12, "materials.bottom.young", "number"},
+      {"a modulus beyond any material", with_line(14, "    young: 1.0e300"), 14, 12, "materials.bottom.young",
+       "out of range"},
+      {"gravity of 1e300", base_text() + "tissue: {gravity: [0, 0, -1.0e300]}\n", 21, 19, "tissue.gravity",
+       "|gravity| <= 1000"},
+      {"a visual rate of a microhertz", base_text() + "simulation: {visual_rate: 1.0e-6}\n", 21, 27,
+       "simulation.visual_rate", "10 <= visual_rate <= 1000"},
+      {"a session of 1e300 s", base_text() + "simulation: {duration: 1.0e300}\n", 21, 24,
+       "simulation.duration", "out of range"},
+      {"more tetrahedra than a replay can hold", with_line(5, "  cells: [1000, 1000]"), 5, 10, "mesh.cells",
+       "more than the 2000000 a scenario may hold"},
       {"missing material key", with_line(11, ""), 10, 3, "materials.top.young", "missing required key"},
       {"missing name", with_line(1, ""), 1, 1, "name", "missing required key"},
       {"missing mesh source", with_line(3, ""), 2, 1, "mesh", "missing key 'generator'"},
@@ -348,6 +358,12 @@ TEST_CASE("scenario: files on disk") {
   const fs::path dir = temp_dir("scenario_files");
   SUBCASE("a missing scenario file") {
     CHECK_THROWS_AS((void)load_scenario(dir / "absent.yaml"), InputError);
+  }
+  SUBCASE("a folder, a device or a pipe is refused before it is read") {
+    CHECK_THROWS_WITH_AS((void)load_scenario(dir), doctest::Contains("is a folder, expected a scenario file"),
+                         InputError);
+    CHECK_THROWS_WITH_AS((void)load_scenario("/dev/zero"), doctest::Contains("not a regular file"),
+                         InputError);
   }
   SUBCASE("an empty scenario file") {
     write_file(dir / "empty.yaml", "# nothing here\n");
