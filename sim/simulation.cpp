@@ -9,6 +9,7 @@
 #include <set>
 
 #include "base/input_error.hpp"
+#include "mesh/manifold.hpp"
 
 namespace scalpel {
 
@@ -19,8 +20,11 @@ ScenarioMesh load_scenario_mesh(const Scenario& scenario) {
     out.regions = generated_region_ids(scenario);
     return out;
   }
-  MeshFileInfo info;
+  MeshFileInfo& info = out.file_info;
   out.mesh = read_mesh(scenario.mesh.file.string(), &info);
+  // A bow-tie is a mesh the cutter cannot cut consistently (mesh/manifold.hpp): refused here.
+  if (const ManifoldReport manifold = check_manifold(out.mesh); !manifold.ok())
+    throw InputError(scenario.mesh.file.string(), 0, 0, "", "not a manifold: " + manifold.summary(out.mesh));
   for (const MeshRegion& r : info.regions) {
     if (!r.name.empty()) out.regions[r.name] = r.id;
     out.regions["region_" + std::to_string(r.id)] = r.id;

@@ -38,7 +38,8 @@ namespace scalpel {
 // The scenario's mesh: generated, or read from its file (region names from the file's tags).
 struct ScenarioMesh {
   TetMesh mesh;
-  RegionIds regions;  // region name -> id
+  RegionIds regions;       // region name -> id
+  MeshFileInfo file_info;  // a mesh file's: re-oriented tetrahedra, elements left out
 };
 [[nodiscard]] ScenarioMesh load_scenario_mesh(const Scenario& scenario);
 
