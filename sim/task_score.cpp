@@ -1,6 +1,7 @@
 #include "sim/task_score.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -59,6 +60,25 @@ std::string format(const char* fmt, double a, double b = 0, double c = 0) {
   char buf[256];
   std::snprintf(buf, sizeof buf, fmt, a, b, c);
   return buf;
+}
+
+// Distance in the xy plane from p to the triangle (a, b, c) seen from above; a vertical triangle
+// (a crack face of a vertical cut) is seen as a segment.
+double distance_xy(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                   const Eigen::Vector2d& c) {
+  const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+    return u.x() * v.y() - u.y() * v.x();
+  };
+  const double d1 = cross(b - a, p - a), d2 = cross(c - b, p - b), d3 = cross(a - c, p - c);
+  const bool has_neg = d1 < 0 || d2 < 0 || d3<0, has_pos = d1> 0 || d2 > 0 || d3 > 0;
+  if (!(has_neg && has_pos) && std::abs(cross(b - a, c - a)) > 0.0) return 0.0;
+  const auto to_segment = [&p](const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+    const Eigen::Vector2d e = v - u;
+    const double len2 = e.squaredNorm();
+    const double t = len2 > 0.0 ? std::clamp((p - u).dot(e) / len2, 0.0, 1.0) : 0.0;
+    return (u + t * e - p).norm();
+  };
+  return std::min({to_segment(a, b), to_segment(b, c), to_segment(c, a)});
 }
 
 double clamp01(double x) {
@@ -247,8 +267,13 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     append_path(tip_paths[i], stroke_path_, task_.incisions[i].tolerance);
   }
 
-  // Cut points (rest) by their nearest target: coverage and lateral deviation.
+  // Cut points (rest) by their nearest target: lateral deviation. Coverage: the cut surface (its
+  // crack faces at rest, seen from above) within the tolerance of a station; the cut points alone
+  // would leave stations between two of them uncovered on a mesh coarser than the tolerance.
   const std::vector<Vec3> cuts = cutter.cut_points();
+  std::vector<std::array<Eigen::Vector2d, 3>> surface;
+  for (const auto& f : cutter.cut_surface_faces())
+    surface.push_back({mesh.rest(f[0]).head<2>(), mesh.rest(f[1]).head<2>(), mesh.rest(f[2]).head<2>()});
   std::vector<std::vector<Vec3>> near_cuts(targets_.size());
   for (const Vec3& c : cuts) {
     const Nearest n = nearest(c);
@@ -269,9 +294,10 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     std::size_t cov = 0, band = 0, deep = 0;
     double depth_sum = 0;
     for (const Station& st : t.stations) {
+      const Eigen::Vector2d p = st.p.head<2>();
       bool hit = false;
-      for (const Vec3& c : cuts)
-        if ((c - st.p).head<2>().norm() <= in.tolerance) {
+      for (const auto& f : surface)
+        if (distance_xy(p, f[0], f[1], f[2]) <= in.tolerance) {
           hit = true;
           break;
         }
