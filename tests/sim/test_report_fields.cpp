@@ -53,18 +53,22 @@ std::vector<ToolSample> through_cut() {
   return out;
 }
 
+// A fresh folder holding the through-cut's log, `cut.csv`.
+fs::path folder_with_log(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("scalpelsim_report_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  PoseLogWriter writer((dir / "cut.csv").string(), {{"scenario", "held_box"}});
+  for (const ToolSample& s : through_cut()) writer.write(s);
+  return dir;
+}
+
 }  // namespace
 
 TEST_CASE("report fields: a held box cut through on a plane, against a count by hand") {
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_report_fields";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = folder_with_log("fields");
   const Scenario scenario = parse_scenario(kScenario, "held_box.yaml", dir);
   const fs::path log = dir / "cut.csv";
-  {
-    PoseLogWriter writer(log.string(), {{"scenario", "held_box"}});
-    for (const ToolSample& s : through_cut()) writer.write(s);
-  }
   ReplayOptions options;
   options.out_dir = dir / "out";
   const ReplayResult r = replay(scenario, log, options);
@@ -127,15 +131,9 @@ TEST_CASE("report fields: a held box cut through on a plane, against a count by 
 }
 
 TEST_CASE("report fields: a log whose last line is torn replays, with the warning in the report") {
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_report_torn";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = folder_with_log("torn");
   const Scenario scenario = parse_scenario(kScenario, "held_box.yaml", dir);
-  const fs::path log = dir / "torn.csv";
-  {
-    PoseLogWriter writer(log.string(), {{"scenario", "held_box"}});
-    for (const ToolSample& s : through_cut()) writer.write(s);
-  }
+  const fs::path log = dir / "cut.csv";
   std::ofstream(log, std::ios::app) << "0.801,0.0013,0.00802";  // killed while writing this line
   ReplayOptions options;
   options.out_dir = dir / "out";
