@@ -73,6 +73,16 @@ Parse parse_double(std::string_view s, double& out) {
   return std::isfinite(out) ? Parse::Ok : Parse::NotFinite;
 }
 
+// "# key: value\n"; std::invalid_argument (naming the log `name`) for an entry the reader would
+// not read back.
+std::string metadata_line(const std::string& name, const std::string& key, const std::string& value) {
+  const bool bad_key =
+      key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
+  if (bad_key || value.find_first_of("\r\n") != std::string::npos)
+    throw std::invalid_argument(name + ": bad metadata entry '" + key + "'");
+  return "# " + key + ": " + value + '\n';
+}
+
 // Appends the shortest text that reads back as exactly `v`.
 char* put(char* p, char* end, double v) {
   return std::to_chars(p, end, v).ptr;
@@ -350,13 +360,7 @@ void PoseLogWriter::write_out() {
 void PoseLogWriter::write_preamble(const PoseLogMetadata& metadata) {
   std::string text(kPoseLogMagic);
   text += '\n';
-  for (const auto& [key, value] : metadata) {
-    const bool bad_key =
-        key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
-    if (bad_key || value.find_first_of("\r\n") != std::string::npos)
-      throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
-    text += "# " + key + ": " + value + '\n';
-  }
+  for (const auto& [key, value] : metadata) text += metadata_line(name_, key, value);
   text += std::string(kHeaderText) + (with_force_ ? ",fx,fy,fz" : "") + (with_frame_ ? ",frame" : "") + '\n';
   append(text.data(), text.size());
 }
@@ -410,11 +414,7 @@ void PoseLogWriter::write(const ToolSample& s, std::uint64_t frame) {
 }
 
 void PoseLogWriter::write_trailer(const std::string& key, const std::string& value) {
-  const bool bad_key =
-      key.empty() || key.find_first_of(":\r\n") != std::string::npos || trim(key).size() != key.size();
-  if (bad_key || value.find_first_of("\r\n") != std::string::npos)
-    throw std::invalid_argument(name_ + ": bad metadata entry '" + key + "'");
-  const std::string line = "# " + key + ": " + value + '\n';
+  const std::string line = metadata_line(name_, key, value);
   append(line.data(), line.size());
 }
 
