@@ -28,13 +28,19 @@ struct Ctx {
     throw InputError(file, known ? m.line + 1 : 0, known ? m.column + 1 : 0, key, msg);
   }
 
+  // A mapping whose keys are names among `allowed`, each given once: yaml-cpp keeps every entry
+  // of a repeated key and reads the first, so the second would be silently ignored.
   void keys(const YAML::Node& map, const std::string& where,
             std::initializer_list<const char*> allowed) const {
     if (!map.IsMap()) fail(map, where, "expected a mapping");
+    std::set<std::string> seen;
     for (const auto& kv : map) {
-      const std::string k = kv.first.as<std::string>();
+      if (!kv.first.IsScalar()) fail(kv.first, where, "expected a key name, found a list or mapping");
+      const std::string k = kv.first.Scalar();
+      const std::string path = where.empty() ? k : where + "." + k;
       if (std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return k == a; }))
-        fail(kv.first, where.empty() ? k : where + "." + k, "unknown key");
+        fail(kv.first, path, "unknown key");
+      if (!seen.insert(k).second) fail(kv.first, path, "duplicate key");
     }
   }
 
@@ -107,7 +113,15 @@ Axis parse_axis(const Ctx& c, const YAML::Node& n, const std::string& key, bool 
   c.fail(n, key, "unknown axis '" + s + "'");
 }
 
-ReportLayout parse_layout(const Ctx& c, const YAML::Node& n, const std::string& where, bool output) {
+// A field already read: what it maps, for the checks that nothing is mapped twice.
+struct Mapped {
+  Axis axis;
+  std::uint64_t bits;  // buttons: the bits of the mask it sets
+  std::string where;   // its key path
+};
+
+ReportLayout parse_layout(const Ctx& c, const YAML::Node& n, const std::string& where, bool output,
+                          std::vector<Mapped>& mapped) {
   c.keys(n, where, {"id", "length", "fields"});
   ReportLayout r;
   if (n["id"]) r.id = static_cast<std::uint8_t>(c.integer(n["id"], where + ".id", 0, 255));
@@ -135,6 +149,38 @@ ReportLayout parse_layout(const Ctx& c, const YAML::Node& n, const std::string& 
     if (rf.offset + field_size(rf.type) > r.length)
       c.fail(f["offset"], fw + ".offset", "field ends past the report length " + std::to_string(r.length));
     if (r.id && rf.offset == 0) c.fail(f["offset"], fw + ".offset", "byte 0 is the report id");
+    // Two fields on the same bytes would decode one value as two (or encode one over the other).
+    const auto bytes = [](const ReportField& x) {
+      return std::to_string(x.offset) + "-" + std::to_string(x.offset + field_size(x.type) - 1);
+    };
+    for (std::size_t j = 0; j < r.fields.size(); ++j) {
+      const ReportField& o = r.fields[j];
+      if (rf.offset < o.offset + field_size(o.type) && o.offset < rf.offset + field_size(rf.type))
+        c.fail(f["offset"], fw + ".offset",
+               "bytes " + bytes(rf) + " overlap those of " + where + ".fields[" + std::to_string(j) +
+                   "] (bytes " + bytes(o) + ")");
+    }
+    // An axis read from two places would take whichever report came last; buttons may be spread
+    // over several fields, each its own bits of the 32-bit mask.
+    if (rf.axis == Axis::Buttons) {
+      const std::size_t nbits = 8 * field_size(rf.type);
+      const YAML::Node at = f["shift"] ? f["shift"] : f["offset"];
+      if (rf.shift + nbits > 32)
+        c.fail(at, fw + ".shift",
+               "bits " + std::to_string(rf.shift) + "-" + std::to_string(rf.shift + nbits - 1) +
+                   " of the buttons go past bit 31");
+      const std::uint64_t bits = ((std::uint64_t{1} << nbits) - 1) << rf.shift;
+      for (const Mapped& m : mapped)
+        if (m.axis == Axis::Buttons && (m.bits & bits))
+          c.fail(at, fw + ".shift", "buttons bits overlap those of " + m.where);
+      mapped.push_back({rf.axis, bits, fw});
+    } else {
+      for (const Mapped& m : mapped)
+        if (m.axis == rf.axis)
+          c.fail(f["axis"], fw + ".axis",
+                 "axis '" + f["axis"].Scalar() + "' is already mapped by " + m.where);
+      mapped.push_back({rf.axis, 0, fw});
+    }
     r.fields.push_back(rf);
   }
   return r;
@@ -332,9 +378,10 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
   const YAML::Node in = c.need(root, "input_reports", "");
   if (!in.IsSequence() || in.size() == 0) c.fail(in, "input_reports", "expected a non-empty list");
   std::set<int> ids;
+  std::vector<Mapped> mapped;
   for (std::size_t i = 0; i < in.size(); ++i) {
     const std::string w = "input_reports[" + std::to_string(i) + "]";
-    ReportLayout r = parse_layout(c, in[i], w, false);
+    ReportLayout r = parse_layout(c, in[i], w, false, mapped);
     if (!r.id && in.size() > 1) c.fail(in[i], w + ".id", "needed when there are several input reports");
     if (r.id && !ids.insert(*r.id).second) c.fail(in[i]["id"], w + ".id", "duplicate report id");
     p.input_reports.push_back(std::move(r));
@@ -360,7 +407,8 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
     c.fail(in, "input_reports", "an absolute device has no rx, ry, rz rate axes");
 
   if (root["output_report"]) {
-    p.output_report = parse_layout(c, root["output_report"], "output_report", true);
+    std::vector<Mapped> forces;
+    p.output_report = parse_layout(c, root["output_report"], "output_report", true, forces);
     if (p.output_report->id.has_value() != p.numbered_reports())
       c.fail(root["output_report"], "output_report.id", "numbered like the input reports");
   }

@@ -23,6 +23,8 @@
 // output axes fx fy fz [N]. Value = raw * scale (scale may be negative: it is the axis mapping);
 // for output fields raw = round(force / scale), saturated to the type's range.
 // Types: u8 i8 u16le i16le u16be i16be u32le i32le f32le.
+// Fields of a report do not share bytes; an axis comes from one field of one input report (buttons
+// from several, each its own bits of the 32-bit mask); keys are names, each given once.
 #pragma once
 
 #include <array>

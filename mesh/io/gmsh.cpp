@@ -135,7 +135,7 @@ void read_physical_names(LineReader& r, std::map<int, std::string>& names) {
 
 void read_nodes_v2(LineReader& r, GmshNodes& nodes) {
   section_line(r, "$Nodes count", "the number of nodes");
-  const long long count = r.read_int("$Nodes count", 0, kMaxCount);
+  const long long count = r.read_count("$Nodes count", 0, "nodes");
   r.expect_line_end("$Nodes count");
   nodes.tags.reserve(static_cast<std::size_t>(count));
   nodes.points.reserve(static_cast<std::size_t>(count));
@@ -156,7 +156,7 @@ void read_nodes_v2(LineReader& r, GmshNodes& nodes) {
 
 void read_elements_v2(LineReader& r, GmshElements& el) {
   section_line(r, "$Elements count", "the number of elements");
-  const long long count = r.read_int("$Elements count", 0, kMaxCount);
+  const long long count = r.read_count("$Elements count", 0, "elements");
   r.expect_line_end("$Elements count");
   for (long long i = 0; i < count; ++i) {
     section_line(r, "$Elements count", "element", i, count);
@@ -203,7 +203,7 @@ void read_entities_v41(LineReader& r, std::map<int, int>& volume_physical) {
 void read_nodes_v41(LineReader& r, GmshNodes& nodes) {
   section_line(r, "$Nodes count", "the block and node counts");
   const long long blocks = r.read_int("$Nodes count", 0, kMaxCount);
-  const long long count = r.read_int("$Nodes count", 0, kMaxCount);
+  const long long count = r.read_count("$Nodes count", 0, "nodes");
   const int count_line = r.line_no();
   (void)r.read_int("$Nodes count");  // min node tag
   (void)r.read_int("$Nodes count");  // max node tag
@@ -253,7 +253,7 @@ void read_nodes_v41(LineReader& r, GmshNodes& nodes) {
 void read_elements_v41(LineReader& r, const std::map<int, int>* volume_physical, GmshElements& el) {
   section_line(r, "$Elements count", "the block and element counts");
   const long long blocks = r.read_int("$Elements count", 0, kMaxCount);
-  const long long count = r.read_int("$Elements count", 0, kMaxCount);
+  const long long count = r.read_count("$Elements count", 0, "elements");
   const int count_line = r.line_no();
   (void)r.read_int("$Elements count");
   (void)r.read_int("$Elements count");
@@ -308,7 +308,11 @@ void skip_section(LineReader& r, const std::string& name) {
 }  // namespace
 
 TetMesh read_gmsh(const std::string& path, MeshFileInfo* info) {
-  LineReader r(path, read_file(path), false);
+  return parse_gmsh(read_file(path), path, info);
+}
+
+TetMesh parse_gmsh(std::string text, const std::string& path, MeshFileInfo* info) {
+  LineReader r(path, std::move(text), false);
   // $MeshFormat: "version file-type data-size"; file-type 1 is binary.
   while (r.next_line() && r.blank()) {
   }

@@ -6,7 +6,8 @@
 // file order. Positions become both rest and current positions. A tetrahedron given with negative
 // orientation (exact orient3d) is re-oriented by swapping its last two vertices; a degenerate or
 // repeated-vertex tetrahedron is an InputError. Every malformed input throws InputError naming the
-// file, the line and the field.
+// file, the line and the field. A node or element count above 100 million (mesh_io::kMaxItems) or
+// above what the file's size can hold is refused before anything is allocated for it.
 //
 // The one public header of mesh/io/. Each format has its own source (gmsh.cpp, tetgen.cpp, vtu.cpp,
 // obj.cpp, ply.cpp) over what they share: the text reader and its located errors (reader.hpp), the
@@ -59,6 +60,12 @@ struct MeshFileInfo {
 [[nodiscard]] TetMesh read_tetgen(const std::string& path, MeshFileInfo* info = nullptr);
 // VTK XML UnstructuredGrid, ASCII data arrays; cell data "region" (if present) gives the regions.
 [[nodiscard]] TetMesh read_vtu(const std::string& path, MeshFileInfo* info = nullptr);
+// The same readers on a file's text already in memory; `file` (and `node_file`, `ele_file`) name
+// it in errors.
+[[nodiscard]] TetMesh parse_gmsh(std::string text, const std::string& file, MeshFileInfo* info = nullptr);
+[[nodiscard]] TetMesh parse_tetgen(std::string node_text, const std::string& node_file, std::string ele_text,
+                                   const std::string& ele_file, MeshFileInfo* info = nullptr);
+[[nodiscard]] TetMesh parse_vtu(std::string text, const std::string& file, MeshFileInfo* info = nullptr);
 // Dispatches on the extension: .msh, .node or .ele, .vtu; anything else is an InputError.
 [[nodiscard]] TetMesh read_mesh(const std::string& path, MeshFileInfo* info = nullptr);
 

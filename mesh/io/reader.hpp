@@ -11,8 +11,12 @@
 
 namespace scalpel::mesh_io {
 
-// The largest count a file may declare (nodes, elements, blocks, entities).
+// The largest number a file may give as a count or tag (blocks, entities, physical tags).
 constexpr long long kMaxCount = 2'000'000'000;
+// The most nodes or elements a file may declare (docs/formats.md). A count is also refused when the
+// whole file is too short to hold it, so that nothing is allocated for items that are not there (a
+// header declaring 2e9 nodes in a file of a few bytes).
+constexpr long long kMaxItems = 100'000'000;
 
 // The whole file; InputError if it cannot be opened or read.
 [[nodiscard]] std::string read_file(const std::string& path);
@@ -76,6 +80,21 @@ class LineReader {
     if (v < lo || v > hi)
       fail(field,
            std::to_string(v) + " is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return v;
+  }
+  // A count of items (nodes, elements) in [lo, kMaxItems], each a line of the file; `items` names
+  // them. A count the whole file could not hold (a line is at least a character and a newline) is
+  // refused before anything is allocated for it; a file cut short reads up to its end and says
+  // where it ends.
+  long long read_count(std::string_view field, long long lo, std::string_view items) {
+    const long long v = read_int(field);
+    if (v < lo) fail(field, std::to_string(v) + " is out of range, expected at least " + std::to_string(lo));
+    if (v > kMaxItems)
+      fail(field, std::to_string(v) + " " + std::string(items) + " is more than the " +
+                      std::to_string(kMaxItems) + " a mesh file may have");
+    if (2 * v > static_cast<long long>(text_.size()))
+      fail(field, std::to_string(v) + " " + std::string(items) + " declared, more lines than the file's " +
+                      std::to_string(text_.size()) + " bytes can hold");
     return v;
   }
   double read_double(std::string_view field) {

@@ -27,6 +27,7 @@ namespace {
 using mesh_io::append;
 using mesh_io::build_mesh;
 using mesh_io::kMaxCount;
+using mesh_io::kMaxItems;
 using mesh_io::parse_double;
 using mesh_io::parse_int;
 using mesh_io::quoted;
@@ -87,19 +88,34 @@ bool parse_integral(std::string_view s, long long& v) {
   return true;
 }
 
-long long count_attribute(const XmlReader& x, const XmlTag& tag, const std::string& key) {
+// A count of items, each of which takes at least `min_bytes` of the file: more than kMaxItems or
+// than the whole file could hold is refused before anything is allocated for them.
+long long count_attribute(const XmlReader& x, const XmlTag& tag, const std::string& key, long long min_bytes,
+                          const std::string& items) {
   const std::string* s = tag.attribute(key);
   long long v = 0;
   if (!s) x.fail(tag.line, key, "missing attribute of <" + tag.name + ">");
   if (!parse_int(*s, v) || v < 0 || v > kMaxCount)
     x.fail(tag.line, key, "expected a count, found " + quoted(*s));
+  if (v > kMaxItems)
+    x.fail(tag.line, key,
+           std::to_string(v) + " " + items + " is more than the " + std::to_string(kMaxItems) +
+               " a mesh file may have");
+  if (v * min_bytes > static_cast<long long>(x.size()))
+    x.fail(tag.line, key,
+           std::to_string(v) + " " + items + " declared, more than the file's " + std::to_string(x.size()) +
+               " bytes can hold");
   return v;
 }
 
 }  // namespace
 
 TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
-  XmlReader x(path, read_file(path));
+  return parse_vtu(read_file(path), path, info);
+}
+
+TetMesh parse_vtu(std::string text, const std::string& path, MeshFileInfo* info) {
+  XmlReader x(path, std::move(text));
   XmlTag tag;
   if (!x.next_tag(tag) || tag.name != "VTKFile") x.fail(tag.line, "VTKFile", "not a VTK XML file");
   const std::string* type = tag.attribute("type");
@@ -127,8 +143,10 @@ TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
       x.fail(tag.line, "AppendedData", "appended (binary) data is not supported, write the .vtu in ASCII");
     if (tag.name == "Piece") {
       if (npoints >= 0) x.fail(tag.line, "Piece", "more than one Piece is not supported");
-      npoints = count_attribute(x, tag, "NumberOfPoints");
-      ncells = count_attribute(x, tag, "NumberOfCells");
+      // A point is three numbers, a cell at least its offset and its type, each number followed by
+      // a space or a '<'.
+      npoints = count_attribute(x, tag, "NumberOfPoints", 6, "points");
+      ncells = count_attribute(x, tag, "NumberOfCells", 4, "cells");
       piece_line = tag.line;
     }
     if (tag.name == "DataArray") {

@@ -36,6 +36,8 @@ class XmlReader {
   XmlReader(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
   const std::string& file() const { return file_; }
   int line() const { return line_; }
+  // Bytes of the whole text.
+  std::size_t size() const { return text_.size(); }
 
   // InputError at `line` (no column).
   [[noreturn]] void fail(int line, const std::string& field, const std::string& message) const;

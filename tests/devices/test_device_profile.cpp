@@ -158,3 +158,64 @@ TEST_CASE("profile errors name the file, line and key") {
   CHECK(error_of("name: [unclosed").find("bad.yaml:") == 0);
   CHECK_THROWS_AS((void)load_device_profile("/nonexistent/profile.yaml"), InputError);
 }
+
+TEST_CASE("a profile that maps a key, a byte, an axis or a button twice is refused where it does") {
+  const auto error_of = [](const std::string& text) -> std::string {
+    try {
+      (void)parse_device_profile(text, "bad.yaml");
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const std::string t = kMinimal;
+  const auto with = [&](const std::string& from, const std::string& to) {
+    std::string s = t;
+    s.replace(s.find(from), from.size(), to);
+    return s;
+  };
+  // yaml-cpp keeps both entries of a repeated key and reads the first: the second was ignored.
+  CHECK(error_of(t + "name: other\n") == "bad.yaml:13:1: name: duplicate key");
+  CHECK(error_of(with("{axis: y, offset: 5,", "{axis: y, offset: 5, offset: 6,")) ==
+        "bad.yaml:11:30: input_reports[0].fields[1].offset: duplicate key");
+  // A key that is a list or a mapping threw yaml-cpp's conversion error: exit 3, no file named.
+  CHECK(error_of("? [vendor_id, product_id]\n: 1\n") ==
+        "bad.yaml:1:3: expected a key name, found a list or mapping");
+  CHECK(error_of(with("workspace: {min:", "workspace: {{a: 1}: 2, min:")) ==
+        "bad.yaml:5:13: workspace: expected a key name, found a list or mapping");
+  // Two fields on one byte decoded it twice.
+  CHECK(error_of(with("{axis: z, offset: 9, type: f32le}", "{axis: z, offset: 7, type: f32le}")) ==
+        "bad.yaml:12:27: input_reports[0].fields[2].offset: bytes 7-10 overlap those of "
+        "input_reports[0].fields[1] (bytes 5-8)");
+  // An axis mapped twice took whichever report came last.
+  CHECK(error_of(with("{axis: z,", "{axis: x,")) ==
+        "bad.yaml:12:16: input_reports[0].fields[2].axis: axis 'x' is already mapped by "
+        "input_reports[0].fields[0]");
+  const std::string two_reports =
+      t + "  - id: 2\n    length: 5\n    fields: [{axis: y, offset: 1, type: f32le}]\n";
+  CHECK(error_of(two_reports) ==
+        "bad.yaml:15:21: input_reports[1].fields[0].axis: axis 'y' is already mapped by "
+        "input_reports[0].fields[1]");
+  const std::string forces = t +
+                             "output_report:\n  id: 2\n  length: 5\n  fields:\n"
+                             "    - {axis: fx, offset: 1, type: i16le}\n"
+                             "    - {axis: fx, offset: 3, type: i16le}\n"
+                             "max_force: 1\nmax_force_rate: 1\n";
+  CHECK(error_of(forces) ==
+        "bad.yaml:18:14: output_report.fields[1].axis: axis 'fx' is already mapped by "
+        "output_report.fields[0]");
+  // Buttons may be spread over fields, each its own bits of the 32-bit mask.
+  const std::string buttons = t +
+                              "  - id: 3\n    length: 4\n    fields:\n"
+                              "      - {axis: buttons, offset: 1, type: u8}\n"
+                              "      - {axis: buttons, offset: 2, type: u8, shift: 8}\n";
+  const DeviceProfile p = parse_device_profile(
+      buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 16}\n", "good.yaml");
+  REQUIRE(p.input_reports.size() == 2);
+  CHECK(p.input_reports[1].fields.size() == 3);
+  CHECK(error_of(buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 4}\n") ==
+        "bad.yaml:18:53: input_reports[1].fields[2].shift: buttons bits overlap those of "
+        "input_reports[1].fields[0]");
+  CHECK(error_of(buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 28}\n") ==
+        "bad.yaml:18:53: input_reports[1].fields[2].shift: bits 28-35 of the buttons go past bit 31");
+}
