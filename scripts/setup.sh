@@ -8,7 +8,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libgmp-dev
   libhidapi-dev libusb-1.0-0-dev libglfw3-dev libgl-dev libegl-dev libimgui-dev libstb-dev
   libegl-mesa0 libgl1-mesa-dri xvfb xauth
-  doctest-dev libbenchmark-dev
+  doctest-dev libbenchmark-dev clang libclang-rt-14-dev
   gmsh tetgen python3-meshio python3-matplotlib
 )
 

@@ -206,13 +206,17 @@ TEST_CASE("a tool moved during a pause resumes where it stood: no jump for the c
   REQUIRE(watch(session, [&](const SessionFrame& f) { return f.status.time >= paused_at + 0.1; }));
   session.stop();
   REQUIRE_FALSE(session.failed());
-  // Consecutive samples the simulation took are never farther apart than the hand moves in a few
-  // haptic periods, across the pause too.
+  // Consecutive samples the simulation took are never farther apart than the hand moved between
+  // them, across the pause too (where session time goes on by one haptic period). A loaded machine
+  // can delay a haptic cycle by milliseconds: the hand's motion over that gap is no jump.
   const std::vector<ToolSample> log = read_pose_log(session.recordings().at(0).string());
   REQUIRE(log.size() > 100);
-  double largest = 0.0;
-  for (std::size_t i = 1; i < log.size(); ++i)
-    largest = std::max(largest, (log[i].position - log[i - 1].position).norm());
+  double largest = 0.0, beyond_hand = 0.0;
+  for (std::size_t i = 1; i < log.size(); ++i) {
+    const double step = (log[i].position - log[i - 1].position).norm();
+    largest = std::max(largest, step);
+    beyond_hand = std::max(beyond_hand, step - 0.05 * (log[i].t - log[i - 1].t));
+  }
   MESSAGE("largest step between samples " << largest * 1e3 << " mm over " << log.size() << " samples");
-  CHECK(largest < 0.05 * 0.01);  // 10 ms of the hand's motion; the pause alone is 5 mm
+  CHECK(beyond_hand < 1e-6);  // [m] the log's rounding; the pause alone is 5 mm
 }

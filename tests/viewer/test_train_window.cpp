@@ -8,14 +8,17 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <stb_image.h>
 
 #include "devices/playback_device.hpp"
 #include "devices/pose_log.hpp"
+#include "sim/replay.hpp"
 #include "sim/scenario.hpp"
 #include "sim/session.hpp"
 #include "sim/simulation.hpp"
@@ -125,4 +128,75 @@ TEST_CASE("the trainee's window shows a played-back incision opening, with its o
   // The recording holds every sample the simulation took.
   REQUIRE(session.recordings().size() == 1);
   CHECK(read_pose_log(session.recordings()[0].string()).size() == session.simulation().samples());
+}
+
+// The three threads of `scalpelsim train --device mock` together: the haptic loop at 1 kHz on the
+// real clock, the simulation at the visual rate, the window drawing what it publishes. Under
+// ThreadSanitizer (scripts/test.sh tsan) this checks every hand-over between them in a live run.
+TEST_CASE(
+    "the window, the simulation and the haptic loop run together on the mock device: every sample "
+    "sent is simulated and recorded, and the recording replays to the same mesh" *
+    doctest::test_suite("slow")) {
+  VirtualDisplay display;
+  const Scenario scenario =
+      load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_window_threads";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // The bundled incision's first 2 s, at real speed: the blade enters the skin and cuts along half
+  // of the line. The window closes when the simulation has taken the last sample the loop sent.
+  std::vector<ToolSample> log = read_pose_log(scenario.log->string());
+  const double end = log.front().t + 2.0;
+  std::erase_if(log, [&](const ToolSample& s) { return s.t > end; });
+  PlaybackDevice device(log);
+  SessionOptions so;
+  so.record = dir / "live.csv";
+  Session session(scenario, device, &device, so);
+  session.update();
+  const std::size_t uncut = session.frame().snapshot.tetrahedra;
+  TrainWindowOptions wo;
+  wo.close_at_end = true;
+  wo.close_after = 600.0;  // a hang fails
+  const TrainWindowResult r = run_train_window(session, nullptr, &device, wo);
+  INFO(session.error());
+  REQUIRE_FALSE(session.failed());
+  session.update();  // the last frame the simulation published
+  const SessionFrame& last = session.frame();
+  REQUIRE(last.status.playback_ended);  // not closed by the time limit
+  const Simulation& live = session.simulation();
+  MESSAGE(live.samples() << " samples in " << live.tissue_steps().size() << " frames, "
+                         << r.render_seconds.size() << " drawn");
+  // The loop ran about 2000 cycles; a loaded machine makes it miss some, never most.
+  CHECK(live.samples() > 500);
+  CHECK(session.haptic_periods().size() + 1 >= live.samples());
+  CHECK(last.snapshot.tetrahedra > uncut);
+  CHECK(r.render_seconds.size() >= 2);
+
+  // The recording holds every sample the simulation took, in order, and the frames it ran.
+  REQUIRE(session.recordings().size() == 1);
+  CHECK(last.status.recorded == live.samples());
+  PoseLogReader reader(session.recordings()[0].string());
+  std::size_t recorded = 0, backwards = 0;
+  double t = -1.0;
+  for (ToolSample s; reader.next(s); ++recorded) {
+    backwards += s.t > t ? 0 : 1;
+    t = s.t;
+  }
+  CHECK(recorded == live.samples());
+  CHECK(backwards == 0);
+  CHECK(reader.metadata("frames") == std::to_string(live.tissue_steps().size()));
+
+  // Replayed headless, in one thread, it gives the live mesh bit for bit.
+  std::vector<Vec3> positions;
+  ReplayOptions ro;
+  ro.out_dir = dir / "replay";
+  ro.on_frame = [&](const Simulation& sim, std::size_t, bool final) {
+    if (final) positions = sim.mesh().positions();
+  };
+  (void)replay(scenario, session.recordings()[0], ro);
+  REQUIRE(positions.size() == live.mesh().positions().size());
+  std::size_t differing = 0;
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    differing += positions[i] != live.mesh().positions()[i] ? 1 : 0;
+  CHECK(differing == 0);
 }
