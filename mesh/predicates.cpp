@@ -1,5 +1,6 @@
 #include "mesh/predicates.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -65,6 +66,17 @@ int exact_orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   return det3_sign(e);
 }
 
+int exact_orient_directions(const Vec3* const (&from)[3], const Vec3* const (&to)[3]) {
+  Rational e[3][3], ta, tb;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      mpq_set_d(ta.v_, (*to[i])[j]);
+      mpq_set_d(tb.v_, (*from[i])[j]);
+      mpq_sub(e[i][j].v_, ta.v_, tb.v_);
+    }
+  return det3_sign(e);
+}
+
 }  // namespace
 
 int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -85,6 +97,34 @@ int orient3d(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   if (std::isfinite(det) && std::abs(det) > 2.0 * bound * permanent) return det > 0 ? 1 : -1;
   g_fallbacks.fetch_add(1, std::memory_order_relaxed);
   return exact_orient3d(a, b, c, d);
+}
+
+int orient_directions(const Vec3& u0, const Vec3& u1, const Vec3& v0, const Vec3& v1, const Vec3& w0,
+                      const Vec3& w1) {
+  const Vec3 u = u1 - u0, v = v1 - v0, w = w1 - w0;
+  const double m1 = v.y() * w.z() - v.z() * w.y();
+  const double m2 = v.x() * w.z() - v.z() * w.x();
+  const double m3 = v.x() * w.y() - v.y() * w.x();
+  const double det = u.x() * m1 - u.y() * m2 + u.z() * m3;
+  const double permanent = std::abs(u.x()) * (std::abs(v.y() * w.z()) + std::abs(v.z() * w.y())) +
+                           std::abs(u.y()) * (std::abs(v.x() * w.z()) + std::abs(v.z() * w.x())) +
+                           std::abs(u.z()) * (std::abs(v.x() * w.y()) + std::abs(v.y() * w.x()));
+  // Three rounded differences (one rounding each) on top of orient3d's own bound, with a wide margin.
+  constexpr double eps = std::numeric_limits<double>::epsilon() * 0.5;
+  if (std::isfinite(det) && std::abs(det) > 32.0 * eps * permanent) return det > 0 ? 1 : -1;
+  // Every term has a zero factor (edges along the axes of a grid): zero exactly, unless a product
+  // of components that are not zero underflowed, which none this far from 0 can.
+  if (permanent == 0.0) {
+    double smallest = std::numeric_limits<double>::infinity();
+    for (const Vec3* x : {&u, &v, &w})
+      for (int i = 0; i < 3; ++i)
+        if ((*x)[i] != 0.0) smallest = std::min(smallest, std::abs((*x)[i]));
+    if (smallest >= 1e-100) return 0;
+  }
+  g_fallbacks.fetch_add(1, std::memory_order_relaxed);
+  const Vec3* const from[3] = {&u0, &v0, &w0};
+  const Vec3* const to[3] = {&u1, &v1, &w1};
+  return exact_orient_directions(from, to);
 }
 
 int orient2d_projected(const Vec3& a, const Vec3& b, const Vec3& c, int drop) {

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "mesh/bvh.hpp"
 #include "mesh/predicates.hpp"
 #include "mesh/topology.hpp"
 
@@ -44,72 +45,64 @@ std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
 // such a node: the split side's triangles at a corner of the face join the corner to a node inside
 // the face or on its edges, and a split edge's piece ends join its node to both ends.
 void check_hanging_nodes(const TetMesh& m, const std::vector<BoundaryFace>& faces, Collector& c) {
-  // Hash grid of boundary-face bounding boxes, cell = mean face extent.
-  double extent = 0.0;
-  const auto& r = m.rest_positions();
-  for (const auto& f : faces)
-    extent += (r[f.nodes[0]] - r[f.nodes[1]]).norm() + (r[f.nodes[1]] - r[f.nodes[2]]).norm();
+  // The boundary's nodes in a tree of their positions: a face's box finds the nodes near it at a
+  // cost that depends neither on the spread of the face sizes nor on the coordinates' magnitude.
   if (faces.empty()) return;
-  const double h = std::max(extent / (2.0 * faces.size()), 1e-12);
-  auto cell = [h](const Vec3& p) {
-    return std::array<long long, 3>{static_cast<long long>(std::floor(p.x() / h)),
-                                    static_cast<long long>(std::floor(p.y() / h)),
-                                    static_cast<long long>(std::floor(p.z() / h))};
-  };
-  std::map<std::array<long long, 3>, std::vector<std::uint32_t>> nodes_in_cell;
+  const auto& r = m.rest_positions();
+  std::vector<AabbTree::LeafInput> points;
   std::vector<std::uint8_t> seen(m.node_capacity(), 0);
   for (const auto& f : faces)
     for (const std::uint32_t n : f.nodes)
       if (!seen[n]) {
         seen[n] = 1;
-        nodes_in_cell[cell(r[n])].push_back(n);
+        points.push_back({Aabb{r[n], r[n]}, n});
       }
+  AabbTree tree;
+  std::vector<std::int32_t> leaf_ids, stack;
+  tree.build(points, leaf_ids);
   for (const auto& f : faces) {
     const Vec3 &a = r[f.nodes[0]], &b = r[f.nodes[1]], &d = r[f.nodes[2]];
     const Vec3 lo = a.cwiseMin(b).cwiseMin(d), hi = a.cwiseMax(b).cwiseMax(d);
-    const auto clo = cell(lo), chi = cell(hi);
     const Vec3 normal = (b - a).cross(d - a);
     const double same = 1e-10 * std::max({(b - a).norm(), (d - b).norm(), (a - d).norm()});
     int drop = 0;
     normal.cwiseAbs().maxCoeff(&drop);
-    for (long long i = clo[0]; i <= chi[0]; ++i)
-      for (long long j = clo[1]; j <= chi[1]; ++j)
-        for (long long k = clo[2]; k <= chi[2]; ++k) {
-          const auto it = nodes_in_cell.find({i, j, k});
-          if (it == nodes_in_cell.end()) continue;
-          for (const std::uint32_t n : it->second) {
-            if (n == f.nodes[0] || n == f.nodes[1] || n == f.nodes[2]) continue;
-            const Vec3& p = r[n];
-            // Coincident copies across a cut; the two sides of a crack may compute one point in a
-            // different order, and cut nodes keep far more than this from any vertex (CutOptions).
-            if ((p - a).norm() <= same || (p - b).norm() <= same || (p - d).norm() <= same) continue;
-            if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
-            if (orient3d(a, b, d, p) != 0) continue;
-            const int s0 = orient2d_projected(a, b, p, drop), s1 = orient2d_projected(b, d, p, drop),
-                      s2 = orient2d_projected(d, a, p, drop);
-            const bool inside = (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
-            if (!inside) continue;
-            // Which of the face's vertices the node is joined to; on an edge of the face, the split
-            // side of a T-junction joins it to both ends of that edge.
-            std::array<bool, 3> to{};
-            for (const std::uint32_t t : m.node_tets(m.node_handle(n)))
-              for (const std::uint32_t v : m.tet_vertex_indices(t))
-                for (size_t q = 0; q < 3; ++q) to[q] = to[q] || v == f.nodes[q];
-            bool joined = to[0] || to[1] || to[2];
-            auto on_edge = [&](const Vec3& u, const Vec3& w) {
-              return (w - u).cross(p - u).norm() <= same * (w - u).norm();
-            };
-            if (on_edge(a, b)) joined = to[0] && to[1];
-            if (on_edge(b, d)) joined = to[1] && to[2];
-            if (on_edge(d, a)) joined = to[2] && to[0];
-            if (joined) {
-              std::ostringstream s;
-              s << "node " << n << " lies on boundary face (" << f.nodes[0] << ' ' << f.nodes[1] << ' '
-                << f.nodes[2] << ") of " << tet_text(m, f.tet) << " without being its vertex (hanging node)";
-              c.add(Invariant::Conforming, f.tet, s.str());
-            }
-          }
-        }
+    const Aabb box{lo, hi};
+    tree.query([&](const Aabb& node_box) { return node_box.overlaps(box); },
+               [&](const std::uint32_t n) {
+                 if (n == f.nodes[0] || n == f.nodes[1] || n == f.nodes[2]) return;
+                 const Vec3& p = r[n];
+                 // Coincident copies across a cut; the two sides of a crack may compute one point in a
+                 // different order, and cut nodes keep far more than this from any vertex (CutOptions).
+                 if ((p - a).norm() <= same || (p - b).norm() <= same || (p - d).norm() <= same) return;
+                 if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) return;
+                 if (orient3d(a, b, d, p) != 0) return;
+                 const int s0 = orient2d_projected(a, b, p, drop), s1 = orient2d_projected(b, d, p, drop),
+                           s2 = orient2d_projected(d, a, p, drop);
+                 const bool inside = (s0 >= 0 && s1 >= 0 && s2 >= 0) || (s0 <= 0 && s1 <= 0 && s2 <= 0);
+                 if (!inside) return;
+                 // Which of the face's vertices the node is joined to; on an edge of the face, the split
+                 // side of a T-junction joins it to both ends of that edge.
+                 std::array<bool, 3> to{};
+                 for (const std::uint32_t t : m.node_tets(m.node_handle(n)))
+                   for (const std::uint32_t v : m.tet_vertex_indices(t))
+                     for (size_t q = 0; q < 3; ++q) to[q] = to[q] || v == f.nodes[q];
+                 bool joined = to[0] || to[1] || to[2];
+                 auto on_edge = [&](const Vec3& u, const Vec3& w) {
+                   return (w - u).cross(p - u).norm() <= same * (w - u).norm();
+                 };
+                 if (on_edge(a, b)) joined = to[0] && to[1];
+                 if (on_edge(b, d)) joined = to[1] && to[2];
+                 if (on_edge(d, a)) joined = to[2] && to[0];
+                 if (joined) {
+                   std::ostringstream s;
+                   s << "node " << n << " lies on boundary face (" << f.nodes[0] << ' ' << f.nodes[1] << ' '
+                     << f.nodes[2] << ") of " << tet_text(m, f.tet)
+                     << " without being its vertex (hanging node)";
+                   c.add(Invariant::Conforming, f.tet, s.str());
+                 }
+               },
+               stack);
   }
 }
 

@@ -26,11 +26,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Sanity bounds that catch millimetres written as metres and meshes too large to simulate.
-constexpr int kMaxCellsPerAxis = 1000;  // hexahedral cells along one axis
-// Tetrahedra of a generated mesh: a replay holds about 2.2 kB per tetrahedron (mesh, cutter and
-// tissue), so the limit keeps one within about 4.4 GB; beyond it a replay would run out of memory
-// minutes in instead of being refused here.
-constexpr long long kMaxTetrahedra = 2'000'000;
+constexpr int kMaxCellsPerAxis = 1000;                   // hexahedral cells along one axis
 constexpr std::uintmax_t kMaxScenarioBytes = 16u << 20;  // a scenario is a page or two of YAML
 constexpr double kUnitTolerance = 1e-6;                  // |q| - 1 of a rotation given as a quaternion
 

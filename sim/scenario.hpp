@@ -22,6 +22,11 @@
 
 namespace scalpel {
 
+// The most tetrahedra a scenario's mesh may have, generated or read from a file: a replay holds
+// about 2.2 kB per tetrahedron (mesh, cutter and tissue), so the limit keeps one within about 4.4 GB;
+// beyond it a replay would run out of memory minutes in instead of being refused before it starts.
+inline constexpr long long kMaxTetrahedra = 2'000'000;
+
 enum class MeshKind { Box, Slab, File };
 
 struct MeshSource {

@@ -10,6 +10,7 @@
 
 #include "base/input_error.hpp"
 #include "mesh/manifold.hpp"
+#include "mesh/overlap.hpp"
 
 namespace scalpel {
 
@@ -22,9 +23,18 @@ ScenarioMesh load_scenario_mesh(const Scenario& scenario) {
   }
   MeshFileInfo& info = out.file_info;
   out.mesh = read_mesh(scenario.mesh.file.string(), &info);
-  // A bow-tie is a mesh the cutter cannot cut consistently (mesh/manifold.hpp): refused here.
+  const std::string file = scenario.mesh.file.string();
+  if (static_cast<long long>(out.mesh.tet_count()) > kMaxTetrahedra)
+    throw InputError(file, 0, 0, "",
+                     std::to_string(out.mesh.tet_count()) + " tetrahedra, more than the " +
+                         std::to_string(kMaxTetrahedra) +
+                         " a scenario may hold (a replay needs about 2.2 kB each)");
+  // A bow-tie, or tissue laid over tissue, is a mesh the cutter cannot cut consistently
+  // (mesh/manifold.hpp, mesh/overlap.hpp): refused here.
   if (const ManifoldReport manifold = check_manifold(out.mesh); !manifold.ok())
-    throw InputError(scenario.mesh.file.string(), 0, 0, "", "not a manifold: " + manifold.summary(out.mesh));
+    throw InputError(file, 0, 0, "", "not a manifold: " + manifold.summary(out.mesh));
+  if (const OverlapReport overlaps = check_overlaps(out.mesh); !overlaps.ok())
+    throw InputError(file, 0, 0, "", "tetrahedra overlap: " + overlaps.summary(out.mesh));
   for (const MeshRegion& r : info.regions) {
     if (!r.name.empty()) out.regions[r.name] = r.id;
     out.regions["region_" + std::to_string(r.id)] = r.id;

@@ -69,6 +69,47 @@ class TagMap {
 };
 
 constexpr int kGmshTetrahedron = 4;
+constexpr long long kGmshLastType = 140;  // Gmsh's element types are numbered 1 to 140
+
+// The volume elements of Gmsh's numbering that are not a 4-node tetrahedron, by name. Elements of
+// lower dimension (points, lines, triangles, quadrangles, of any order), which Gmsh writes for the
+// boundary with the volume, are left out of the mesh; a volume element left out would leave a hole
+// in the tissue, so these are refused.
+constexpr std::pair<int, const char*> kOtherVolumeElements[] = {
+    {5, "8-node hexahedron"},
+    {6, "6-node prism"},
+    {7, "5-node pyramid"},
+    {11, "10-node second-order tetrahedron"},
+    {12, "27-node second-order hexahedron"},
+    {13, "18-node second-order prism"},
+    {14, "14-node second-order pyramid"},
+    {17, "20-node second-order hexahedron"},
+    {18, "15-node second-order prism"},
+    {19, "13-node second-order pyramid"},
+    {29, "20-node third-order tetrahedron"},
+    {30, "35-node fourth-order tetrahedron"},
+    {31, "56-node fifth-order tetrahedron"},
+    {35, "polyhedron"},
+};
+
+const char* other_volume_element(long long type) {
+  for (const auto& [number, name] : kOtherVolumeElements)
+    if (number == type) return name;
+  return nullptr;
+}
+
+// An element type read at `field`: whether it is a tetrahedron to keep (else one to leave out);
+// refuses unknown types and volume elements of other shapes.
+bool keep_element_type(LineReader& r, std::string_view field, long long type) {
+  if (type < 1 || type > kGmshLastType)
+    r.fail(field,
+           std::to_string(type) + " is not a Gmsh element type (1-" + std::to_string(kGmshLastType) + ")");
+  if (const char* name = other_volume_element(type))
+    r.fail(field, "type " + std::to_string(type) + " (" + name +
+                      ") is a volume element that is not a 4-node tetrahedron (type 4): mesh the volume with "
+                      "linear tetrahedra");
+  return type == kGmshTetrahedron;
+}
 
 struct GmshElements {
   std::vector<std::array<long long, 4>> tets;  // node tags
@@ -162,7 +203,7 @@ void read_elements_v2(LineReader& r, GmshElements& el) {
     section_line(r, "$Elements count", "element", i, count);
     (void)r.read_int("element tag", 1, kMaxCount * 4);
     const long long type = r.read_int("element type");
-    if (type != kGmshTetrahedron) {
+    if (!keep_element_type(r, "element type", type)) {
       ++el.skipped;
       continue;
     }
@@ -270,7 +311,7 @@ void read_elements_v41(LineReader& r, const std::map<int, int>* volume_physical,
     if (total > count)
       r.fail_line("$Elements count",
                   "element blocks hold more than the " + std::to_string(count) + " elements counted");
-    const bool keep = type == kGmshTetrahedron;
+    const bool keep = keep_element_type(r, "element block type", type);
     if (keep && dim != 3)
       r.fail("element block entity dimension", "tetrahedra in an entity of dimension " + std::to_string(dim));
     int physical = 0;

@@ -40,6 +40,28 @@ using mesh_io::XmlTag;
 
 constexpr int kVtkTetra = 10;
 
+// What a VTK cell type is to the reader. Cells of lower dimension (vertices, lines, triangles,
+// quadrilaterals, polygons, of any order) are left out of the mesh; a volume cell left out would
+// leave a hole in the tissue, so those of other shapes are refused, as are types VTK does not have.
+enum class VtkCell { Tetrahedron, Lower, OtherVolume, Unknown };
+// Vertices to quadrilaterals; quadratic and cubic edges, triangles, quadrilaterals and polygons;
+// Lagrange and Bezier curves, triangles and quadrilaterals.
+constexpr std::array<int, 23> kVtkLower = {1,  2,  3,  4,  5,  6,  7,  8,  9,  21, 22, 23,
+                                           28, 30, 34, 35, 36, 68, 69, 70, 75, 76, 77};
+// Voxel to hexagonal prism; quadratic tetrahedra to pyramids; point sets and polyhedra; Lagrange and
+// Bezier tetrahedra to pyramids.
+constexpr std::array<int, 25> kVtkOtherVolume = {11, 12, 13, 14, 15, 16, 24, 25, 26, 27, 29, 31, 32,
+                                                 33, 37, 41, 42, 71, 72, 73, 74, 78, 79, 80, 81};
+VtkCell vtk_cell(long long type) {
+  const auto in = [type](const auto& list) {
+    return std::find(list.begin(), list.end(), type) != list.end();
+  };
+  if (type == kVtkTetra) return VtkCell::Tetrahedron;
+  if (in(kVtkLower)) return VtkCell::Lower;
+  if (in(kVtkOtherVolume)) return VtkCell::OtherVolume;
+  return VtkCell::Unknown;
+}
+
 // ---- reading -------------------------------------------------------------------------------------
 
 // Reads the values of a DataArray up to its closing tag: exactly `count` numbers.
@@ -265,8 +287,15 @@ TetMesh parse_vtu(std::string text, const std::string& path, MeshFileInfo* info)
       raw.tets.push_back(v);
       raw.tags.push_back(static_cast<int>(r));
       raw.lines.push_back(connectivity_lines[static_cast<std::size_t>(start)]);
-    } else {
+    } else if (const VtkCell kind = vtk_cell(types[c]); kind == VtkCell::Lower) {
       ++raw.skipped;
+    } else {
+      x.fail(
+          piece_line, "DataArray 'types'",
+          "cell " + std::to_string(c) + " has type " + std::to_string(types[c]) +
+              (kind == VtkCell::Unknown ? ", which is not a VTK cell type"
+                                        : ", a volume cell that is not a tetrahedron (VTK_TETRA, type 10): "
+                                          "mesh the volume with linear tetrahedra"));
     }
     start = end;
   }

@@ -66,17 +66,22 @@ bool wait_for_device(const DeviceProfile& profile, const DeviceSelector& selecto
   return true;
 }
 
-// A pose log for a device to play back, with a word on the terminal when reading takes a while
-// and a warning when its last line is torn.
-std::vector<ToolSample> read_log_for_playback(const std::string& path) {
+// A pose log for a device to play back, with a word on the terminal when reading takes a while,
+// a warning when it was recorded on another scenario than `scenario` (a replay reports the same,
+// docs/formats.md) and one when its last line is torn.
+std::vector<ToolSample> read_log_for_playback(const std::string& path, const std::string& scenario) {
   std::error_code ec;
   const auto bytes = fs::file_size(path, ec);
   const bool large = !ec && bytes > (16u << 20);
   if (large) std::cerr << "reading " << path << " (" << (bytes >> 20) << " MB)...\n";
-  std::string torn;
-  std::vector<ToolSample> samples = read_pose_log(path, &torn);
+  PoseLogReader reader(path);
+  if (const auto recorded_on = reader.metadata("scenario"); recorded_on && *recorded_on != scenario)
+    std::cerr << "warning: " << path << " was recorded on scenario '" << *recorded_on << "', played on '"
+              << scenario << "'\n";
+  std::vector<ToolSample> samples;
+  for (ToolSample s; reader.next(s);) samples.push_back(s);
   if (large) std::cerr << "read " << samples.size() << " samples\n";
-  if (!torn.empty()) std::cerr << "warning: " << torn << "\n";
+  if (!reader.torn_warning().empty()) std::cerr << "warning: " << reader.torn_warning() << "\n";
   return samples;
 }
 
@@ -96,7 +101,7 @@ int cmd_record(const RecordArgs& a) {
   if (a.device == "mock") {
     if (a.replay_log.empty())
       throw InputError(a.scenario, 0, 0, "--replay", "the mock device needs --replay LOG");
-    auto mock = std::make_unique<MockDevice>(read_log_for_playback(a.replay_log));
+    auto mock = std::make_unique<MockDevice>(read_log_for_playback(a.replay_log, scenario.name));
     // Paced: the log plays at its own rate on the real clock, like the hand that recorded it.
     options.virtual_clock = a.unpaced;
     if (!a.unpaced && a.duration <= 0.0) options.duration = mock->duration() + 1.0 / options.loop.rate;
@@ -187,7 +192,7 @@ int cmd_train(const TrainArgs& a) {
     if (log.empty() && scenario.log) log = *scenario.log;
     if (log.empty())
       throw InputError(scenario_path.string(), 0, 0, "--replay", "--device mock needs --replay LOG");
-    auto p = std::make_unique<PlaybackDevice>(read_log_for_playback(log.string()));
+    auto p = std::make_unique<PlaybackDevice>(read_log_for_playback(log.string(), scenario.name));
     p->set_speed(a.speed);
     playback = p.get();
     device = std::move(p);

@@ -16,6 +16,7 @@
 #include "cutting/state_graph.hpp"
 #include "mesh/io/mesh_io.hpp"
 #include "mesh/manifold.hpp"
+#include "mesh/overlap.hpp"
 #include "mesh/quality.hpp"
 #include "mesh/validate.hpp"
 #include "sim/check.hpp"
@@ -229,6 +230,7 @@ int cmd_inspect(const std::string& path, bool as_json) {
   // positions, and its deformed positions may turn a sliver over, which is counted apart.
   const auto report = validate(mesh, {.reference_volume = s.rest_volume});
   const ManifoldReport manifold = check_manifold(mesh);
+  const OverlapReport overlaps = check_overlaps(mesh);
   std::size_t inverted_now = 0;
   if (info.has_rest_positions)
     for (const TetId t : mesh.tets()) {
@@ -268,6 +270,7 @@ int cmd_inspect(const std::string& path, bool as_json) {
     j["manifold"] = {{"ok", manifold.ok()},
                      {"pinched_vertices", manifold.pinched_vertices.size()},
                      {"pinched_edges", manifold.pinched_edges.size()}};
+    j["overlapping_pairs"] = overlaps.pairs;
     j["unused_points"] = info.unused_points;
     j["rest_positions_from_file"] = info.has_rest_positions;
     j["inverted_in_current_positions"] = inverted_now;
@@ -300,6 +303,8 @@ int cmd_inspect(const std::string& path, bool as_json) {
     if (info.skipped_elements > 0)
       std::cout << "  " << info.skipped_elements << " elements that are not tetrahedra were left out\n";
     std::cout << "  manifold: " << (manifold.ok() ? "yes" : "NO, " + manifold.summary(mesh)) << "\n";
+    std::cout << "  overlapping tetrahedra: " << (overlaps.ok() ? "none" : "YES, " + overlaps.summary(mesh))
+              << "\n";
     std::cout << "  invariants: " << (report.ok() ? "all hold" : "BROKEN") << "\n";
     if (!report.ok()) std::cout << report.summary();
   }

@@ -146,6 +146,23 @@ TEST_CASE("validate names the broken invariant and element") {
     const auto r = validate(m);
     CHECK_MESSAGE(r.passed[2], r.summary());
   }
+  SUBCASE("the hanging-node search copes with faces of any size and position") {
+    // A box of micrometre cells beside a tetrahedron ten metres wide, and one at 1e300 m: a search
+    // in cells of the mean face size (about a centimetre here) visited 1e8 cells for the large face,
+    // and cast a coordinate over the cell size to an integer.
+    TetMesh m = make_box({.max = Vec3(1e-5, 1e-5, 1e-5), .cells = {16, 16, 16}});
+    const auto far_tet = [&](double at, double size) {
+      const NodeId a = m.add_node(Vec3(at, 0, 0)), b = m.add_node(Vec3(at + size, 0, 0)),
+                   c = m.add_node(Vec3(at, size, 0)), d = m.add_node(Vec3(at, 0, size));
+      m.add_tet({a, b, c, d});
+    };
+    far_tet(1.0, 10.0);
+    const auto r = validate(m);
+    CHECK_MESSAGE(r.passed[2], r.summary());
+    CHECK(r.passed[3]);
+    far_tet(1e300, 1e290);
+    CHECK(validate(m).passed[2]);
+  }
   SUBCASE("lost volume") {
     TetMesh m = make_box({});
     m.remove_tet(m.tets().front());

@@ -255,6 +255,27 @@ TEST_CASE("mesh_io names file, line and field for malformed input") {
            vtu_tail},
       {{"vtu_truncated.vtu", "", 11, "<Cells>"}, vtu_head},
       {{"mesh.stl", "", 0, "mesh file"}, "solid\n"},
+      // A volume element of another shape would leave a hole if left out; an unknown type is no
+      // element at all. (Lines, triangles and points are left out: Gmsh writes them with a volume.)
+      {{"hexahedron.msh", "", 14, "element type"},
+       fmt + nodes + "$Elements\n2\n1 4 0 1 2 3 4\n2 5 0 1 2 3 4 1 2 3 4\n$EndElements\n"},
+      {{"tet10.msh", "", 13, "element type"},
+       fmt + nodes + "$Elements\n1\n1 11 0 1 2 3 4 1 2 3 4 1 2\n$EndElements\n"},
+      {{"unknown_type.msh", "", 13, "element type"},
+       fmt + nodes + "$Elements\n1\n1 999 0 1 2\n$EndElements\n"},
+      {{"prism41.msh", "", 18, "element block type"},
+       v41 + "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n" +
+           "$Elements\n1 1 1 1\n3 1 6 1\n1 1 2 3 4 1 2\n$EndElements\n"},
+      {{"vtu_hexahedron.vtu", "", 4, "DataArray 'types'"},
+       vtu_head + "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>\n" +
+           "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">4</DataArray>\n" +
+           "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">12</DataArray>\n" +
+           "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n"},
+      {{"vtu_unknown_type.vtu", "", 4, "DataArray 'types'"},
+       vtu_head + "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>\n" +
+           "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">4</DataArray>\n" +
+           "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">200</DataArray>\n" +
+           "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n"},
   };
   // The .ele cases share one .node file.
   for (const char* stem : {"range", "few", "attribute"})
