@@ -123,15 +123,21 @@ TEST_CASE("non-finite float fields make a report malformed") {
   CHECK(parse_report(p, rep, v) == ParseResult::Malformed);
 }
 
+namespace {
+
+// The error a profile's text gives, read as "bad.yaml"; "no error" if it reads.
+std::string error_of(const std::string& text) {
+  try {
+    (void)parse_device_profile(text, "bad.yaml");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+}  // namespace
+
 TEST_CASE("profile errors name the file, line and key") {
-  const auto error_of = [](const std::string& text) -> std::string {
-    try {
-      (void)parse_device_profile(text, "bad.yaml");
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "no error";
-  };
   std::string t = kMinimal;
   CHECK(error_of(t + "colour: red\n") == "bad.yaml:13:1: colour: unknown key");
   std::string wrong_type = t;
@@ -160,14 +166,6 @@ TEST_CASE("profile errors name the file, line and key") {
 }
 
 TEST_CASE("a profile that maps a key, a byte, an axis or a button twice is refused where it does") {
-  const auto error_of = [](const std::string& text) -> std::string {
-    try {
-      (void)parse_device_profile(text, "bad.yaml");
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "no error";
-  };
   const std::string t = kMinimal;
   const auto with = [&](const std::string& from, const std::string& to) {
     std::string s = t;

@@ -73,6 +73,18 @@ class VirtualDisplay {
   std::string name_, old_;
 };
 
+Scenario bundled_incision() {
+  return load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
+}
+
+// A folder of the system's temporary folder, emptied.
+fs::path empty_folder(const char* name) {
+  const fs::path dir = fs::temp_directory_path() / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
 bool is_wound(const unsigned char* p) {
   return p[0] > 40 && p[0] > 3 * p[1] && p[0] > 3 * p[2];
 }
@@ -82,11 +94,8 @@ bool is_wound(const unsigned char* p) {
 TEST_CASE("the trainee's window shows a played-back incision opening, with its overlay, and records it" *
           doctest::test_suite("slow")) {
   VirtualDisplay display;
-  const Scenario scenario =
-      load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_window";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const Scenario scenario = bundled_incision();
+  const fs::path dir = empty_folder("scalpelsim_test_window");
   PlaybackDevice device(read_pose_log(scenario.log->string()));
   device.set_speed(4.0);
   SessionOptions so;
@@ -138,11 +147,8 @@ TEST_CASE(
     "sent is simulated and recorded, and the recording replays to the same mesh" *
     doctest::test_suite("slow")) {
   VirtualDisplay display;
-  const Scenario scenario =
-      load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_window_threads";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const Scenario scenario = bundled_incision();
+  const fs::path dir = empty_folder("scalpelsim_test_window_threads");
   // The bundled incision's first 2 s, at real speed: the blade enters the skin and cuts along half
   // of the line. The window closes when the simulation has taken the last sample the loop sent.
   std::vector<ToolSample> log = read_pose_log(scenario.log->string());
