@@ -10,10 +10,10 @@ namespace scalpel {
 const std::array<Perm4, 24>& Perm4::all() {
   static const std::array<Perm4, 24> perms = [] {
     std::array<Perm4, 24> out{};
-    std::array<std::uint8_t, 4> p{0, 1, 2, 3};
+    std::array<std::uint8_t, 4> labels{0, 1, 2, 3};
     int i = 0;
-    do out[static_cast<size_t>(i++)].p = p;
-    while (std::next_permutation(p.begin(), p.end()));
+    do out[static_cast<size_t>(i++)].p = labels;
+    while (std::next_permutation(labels.begin(), labels.end()));
     return out;
   }();
   return perms;
