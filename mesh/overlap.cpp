@@ -40,7 +40,8 @@ bool parallel(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
 }
 
 // Whether the direction across edge (p0, p1) of `a` and edge (q0, q1) of `b` separates them: every
-// vertex of `b` lies on the same side of every vertex of `a` along it, or on it.
+// vertex of `b` lies on the same side of every vertex of `a` along it, or on it. Parallel edges
+// (checked only when every sign is zero, as all are for them) span no direction.
 bool edges_separate(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, const Vec3& p0,
                     const Vec3& p1, const Vec3& q0, const Vec3& q1) {
   int seen = 0;
@@ -51,7 +52,8 @@ bool edges_separate(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, 
       if (seen == 0) seen = s;
       if (s != seen) return false;
     }
-  // All on the plane would be edges parallel to each other: no direction at all.
+  // Every vertex on one plane: either parallel edges, which span no direction at all, or (for
+  // tetrahedra that are not flat) never.
   return seen != 0 || !parallel(p0, p1, q0, q1);
 }
 
@@ -109,7 +111,6 @@ bool tetrahedra_overlap(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>&
       const Vec3& p1 = a[static_cast<std::size_t>(ea[1])];
       const Vec3& q0 = b[static_cast<std::size_t>(eb[0])];
       const Vec3& q1 = b[static_cast<std::size_t>(eb[1])];
-      if (parallel(p0, p1, q0, q1)) continue;
       if (edges_separate(a, b, p0, p1, q0, q1)) return false;
     }
   return true;
