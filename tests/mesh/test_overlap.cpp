@@ -99,7 +99,8 @@ TEST_CASE("overlap: random pairs agree with points sampled inside both") {
   CHECK(apart > 30);
 }
 
-TEST_CASE("overlap: none in a generated box, found in a copy laid over it and in one tetrahedron given twice") {
+TEST_CASE(
+    "overlap: none in a generated box, found in a copy laid over it and in one tetrahedron given twice") {
   const TetMesh box = make_box({.cells = {3, 2, 2}, .split = CubeSplit::Six});
   CHECK(check_overlaps(box).ok());
 
