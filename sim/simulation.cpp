@@ -122,21 +122,24 @@ void Simulation::on_sample(const ToolSample& s) {
   cut_seconds_.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   hand_over_cut();
   {
-    // Where the tip is under the skin (a probe of the surface only when it is near the tissue) and
-    // where in the tissue (rest coordinates), for the score.
-    // Under it: the blade's line from the tip leaves the tissue through it. Depth: the distance to
-    // its nearest point, now and (for the tip's material point) at rest.
+    // Where the blade cuts deepest in the tissue (a probe of the surface only when the blade is near
+    // it) and where that is in the tissue (rest coordinates), for the score: the tip, or where the
+    // blade enters the tissue when the tip has gone through its whole thickness. Depth: its
+    // distance to the nearest point of the surface facing the blade's back, now and (for its
+    // material point) at rest.
     std::optional<SurfaceHit> hit;
-    if (((pose.tip - bounds_lo_).array() >= 0).all() && ((pose.tip - bounds_hi_).array() <= 0).all() &&
-        surface_->above(mesh_, pose.tip, pose.back))
-      hit = surface_->nearest(mesh_.positions(), pose.tip);
     std::optional<Vec3> rest_tip;
     std::optional<double> material_depth;
-    if (hit)
-      if (const auto at = cutter_->locate(pose.tip, kBladeHalfThickness)) {
-        rest_tip = Vec3::Zero();
-        for (int i = 0; i < 4; ++i) *rest_tip += at->weights[i] * mesh_.rest(at->corners[i]);
-        material_depth = surface_->nearest(mesh_.rest_positions(), *rest_tip).depth;
+    const Vec3 up = pose.back - pose.tip;
+    const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
+    if ((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)
+      if (const auto deepest = surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back)) {
+        hit = surface_->nearest(mesh_.positions(), *deepest, up);
+        if (const auto at = cutter_->locate(*deepest, kBladeHalfThickness)) {
+          rest_tip = Vec3::Zero();
+          for (int i = 0; i < 4; ++i) *rest_tip += at->weights[i] * mesh_.rest(at->corners[i]);
+          material_depth = surface_->nearest(mesh_.rest_positions(), *rest_tip, up).depth;
+        }
       }
     // The hand pushes against the tissue's resistance to the blade (what a device renders, before
     // its own force limit); the last frame's contact sets it.

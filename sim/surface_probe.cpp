@@ -12,22 +12,22 @@ SurfaceProbe::SurfaceProbe(const TetMesh& uncut) {
   for (const BoundaryFace& f : boundary_faces(uncut)) faces_.push_back(f.nodes);
 }
 
-std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const Vec3& tip,
-                                              const Vec3& back) const {
-  const Vec3 axis = back - tip;
-  const double length = axis.norm();
-  if (!(length > 0.0)) return std::nullopt;
-  const Vec3 dir = axis / length;
-  // The nearest crossing of the surface either way: the tip is under the surface when the ray first
-  // leaves the tissue, not when it first enters it (a tip above a fold of the organ).
-  double best = std::numeric_limits<double>::infinity();
-  std::optional<SurfaceHit> hit;
-  bool leaving = false;
-  for (const auto& f : faces_) {
+namespace {
+
+// The nearest crossing of the ray from `tip` along the unit `dir` with a triangle of `faces` in
+// positions `x`: its parameter and the triangle's (unnormalised, outward) normal.
+struct RayCrossing {
+  double t = std::numeric_limits<double>::infinity();
+  Vec3 normal = Vec3::Zero();
+};
+
+RayCrossing first_crossing(const std::vector<std::array<std::uint32_t, 3>>& faces, const std::vector<Vec3>& x,
+                           const Vec3& tip, const Vec3& dir) {
+  RayCrossing best;
+  for (const auto& f : faces) {
     const Vec3 &a = x[f[0]], &b = x[f[1]], &c = x[f[2]];
     // Moller-Trumbore, edges inclusive, so a ray through an edge or a vertex still meets the surface.
     const Vec3 e1 = b - a, e2 = c - a;
-    const Vec3 n = e1.cross(e2);
     const Vec3 pv = dir.cross(e2);
     const double det = e1.dot(pv);
     if (det == 0.0) continue;
@@ -38,26 +38,51 @@ std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const 
     const double v = dir.dot(qv) / det;
     if (v < 0.0 || u + v > 1.0) continue;
     const double t = e2.dot(qv) / det;
-    if (t < 0.0 || t >= best) continue;
-    best = t;
-    leaving = n.dot(dir) > 0.0;
-    const Vec3 normal = n.normalized();
-    hit = SurfaceHit{t * dir.dot(normal), tip + t * dir, normal};
+    if (t < 0.0 || t >= best.t) continue;
+    best = {t, e1.cross(e2)};
   }
-  if (!leaving) return std::nullopt;
-  return hit;
+  return best;
 }
 
-SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p) const {
+}  // namespace
+
+std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const Vec3& tip,
+                                              const Vec3& back) const {
+  const Vec3 axis = back - tip;
+  const double length = axis.norm();
+  if (!(length > 0.0)) return std::nullopt;
+  const Vec3 dir = axis / length;
+  // The nearest crossing of the surface either way: the tip is under the surface when the ray first
+  // leaves the tissue, not when it first enters it (a tip above a fold of the organ).
+  const RayCrossing c = first_crossing(faces_, x, tip, dir);
+  if (!(c.normal.dot(dir) > 0.0)) return std::nullopt;
+  const Vec3 normal = c.normal.normalized();
+  return SurfaceHit{c.t * dir.dot(normal), tip + c.t * dir, normal};
+}
+
+std::optional<Vec3> SurfaceProbe::deepest_in_tissue(const std::vector<Vec3>& x, const Vec3& tip,
+                                                    const Vec3& back) const {
+  const Vec3 axis = back - tip;
+  const double length = axis.norm();
+  if (!(length > 0.0)) return std::nullopt;
+  const Vec3 dir = axis / length;
+  const RayCrossing c = first_crossing(faces_, x, tip, dir);
+  if (!std::isfinite(c.t)) return std::nullopt;
+  if (c.normal.dot(dir) > 0.0) return tip;  // leaves first: the tip is in the tissue
+  if (c.t <= length) return Vec3(tip + c.t * dir);
+  return std::nullopt;
+}
+
+SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p, const Vec3& up) const {
   SurfaceHit best;
   double best_d2 = std::numeric_limits<double>::infinity();
   for (const auto& f : faces_) {
     const Vec3 &a = x[f[0]], &b = x[f[1]], &c = x[f[2]];
+    const Vec3 n = (b - a).cross(c - a);
+    if (!(n.squaredNorm() > 0) || !(n.dot(up) > 0.0)) continue;
     const Vec3 q = closest_point_on_triangle(p, a, b, c);
     const double d2 = (q - p).squaredNorm();
     if (d2 >= best_d2) continue;
-    const Vec3 n = (b - a).cross(c - a);
-    if (!(n.squaredNorm() > 0)) continue;
     best_d2 = d2;
     best = {std::sqrt(d2), q, n.normalized()};
   }

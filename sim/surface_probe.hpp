@@ -41,10 +41,20 @@ class SurfaceProbe {
   [[nodiscard]] std::optional<SurfaceHit> above(const std::vector<Vec3>& x, const Vec3& tip,
                                                 const Vec3& back) const;
 
-  // The nearest point of the surface to `p` in positions `x` (the rest positions: depth in the
-  // material): its distance as `depth`, the point and the outward normal of its triangle. On a
-  // curved organ this is the depth below the skin around the tip, whichever way the blade leans.
-  [[nodiscard]] SurfaceHit nearest(const std::vector<Vec3>& x, const Vec3& p) const;
+  // The deepest point of the blade in the tissue, in positions `x`: its tip when the tip is under
+  // the surface (as above()), else the point where the blade, from its tip towards its back, first
+  // enters the tissue: a blade pushed through the whole thickness cuts down to the far side. None
+  // when the blade between tip and back does not meet the tissue.
+  [[nodiscard]] std::optional<Vec3> deepest_in_tissue(const std::vector<Vec3>& x, const Vec3& tip,
+                                                      const Vec3& back) const;
+
+  // The nearest point to `p`, in positions `x`, of the surface that faces `up` (outward normal
+  // within 90 degrees of it; the blade's axis towards its back): its distance as `depth`, the point
+  // and the outward normal of its triangle. With the blade's axis as `up` this is the depth below
+  // the skin the blade came through, on a curved organ too and whichever way the blade leans; the
+  // far side of a thin layer faces away and is not taken for the skin. Depth 0 when no triangle
+  // faces `up`.
+  [[nodiscard]] SurfaceHit nearest(const std::vector<Vec3>& x, const Vec3& p, const Vec3& up) const;
 
  private:
   std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented

@@ -306,7 +306,10 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
         ++deep;
         depth_sum += st.depth;
         s.depth_max = std::max(s.depth_max, st.depth);
-        band += hit && st.depth >= in.depth_min && st.depth <= in.depth_max ? 1 : 0;
+        band +=
+            hit && st.depth >= in.depth_min - kDepthBandSlack && st.depth <= in.depth_max + kDepthBandSlack
+                ? 1
+                : 0;
       }
     }
     const double n = static_cast<double>(t.stations.size());
@@ -395,7 +398,7 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     c.passed = dev_points > 0 && rel <= 0.5;
     if (dev_points == 0)
       c.why = "Nothing was cut.";
-    else if (rel > 0.0)
+    else if (1e3 * mean >= 0.005)  // a loss the sentence can show
       c.why = format(
           "The cut lies %.2f mm from the line on average; points fall to zero at the tolerance (%.1f mm).",
           1e3 * mean, 1e3 * tol);

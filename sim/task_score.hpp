@@ -92,8 +92,9 @@ class TaskScorer {
   TaskScorer(const Task& task, std::set<int> protected_ids);
 
   // After the cutter stepped to `pose` for the sample taken at `t` with the hand's `force` [N];
-  // `surface`: SurfaceProbe::above for the pose (none: the tip is not under the surface); `rest_tip`
-  // the tip in rest coordinates where the cutter locates it.
+  // `surface`: the surface above the blade's deepest point in the tissue (SurfaceProbe::
+  // deepest_in_tissue, then nearest; none: the blade is not in the tissue); `rest_tip` that point
+  // in rest coordinates where the cutter locates it, and `material_depth` its depth at rest.
   void on_sample(double t, const BladePose& pose, const CutStepStats& stats,
                  const std::optional<SurfaceHit>& surface, const std::optional<Vec3>& rest_tip,
                  std::optional<double> material_depth, double force);
@@ -109,6 +110,9 @@ class TaskScorer {
   static constexpr double kHesitationTime = 0.5;    // [s]
   // The tip out of the tissue for at least this long ends a stroke (a tremor at the surface does not).
   static constexpr double kStrokeGap = 0.05;  // [s]
+  // The depth band's ends are inclusive by this much: a cut through the whole thickness, measured
+  // to rounding, lies in a band that ends at the thickness.
+  static constexpr double kDepthBandSlack = 1e-6;  // [m]
 
  private:
   struct Station {

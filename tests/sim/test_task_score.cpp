@@ -89,6 +89,38 @@ TEST_CASE("surface probe: depth below the surface the blade's line leaves throug
   CHECK(hit->depth == doctest::Approx(0.0005).epsilon(1e-9));
 }
 
+TEST_CASE("surface probe: the deepest point of a blade through a thin layer, and its depth below the skin") {
+  BoxSpec spec;
+  spec.min = Vec3(0, 0, 0);
+  spec.max = Vec3(0.01, 0.01, 0.004);
+  spec.cells = {4, 4, 2};
+  const TetMesh box = make_box(spec);
+  const SurfaceProbe probe(box);
+  const Vec3 up(0, 0, 1);
+  // Tip 0.5 mm above the bottom of the 4 mm layer: 3.5 mm below the skin it came through, not
+  // 0.5 mm below the far side, which faces away from the blade's back.
+  const Vec3 tip(0.0043, 0.0061, 0.0005);
+  const auto in = probe.deepest_in_tissue(box.rest_positions(), tip, tip + 0.01 * up);
+  REQUIRE(in);
+  CHECK(*in == tip);
+  CHECK(probe.nearest(box.rest_positions(), tip, up).depth == doctest::Approx(0.0035).epsilon(1e-9));
+  CHECK(probe.nearest(box.rest_positions(), tip, up).normal.z() == doctest::Approx(1.0));
+  // Tip 2 mm under the layer, the blade 3 cm long: it cuts the whole thickness, down to where it
+  // enters through the bottom face; 4 mm below the skin there.
+  const Vec3 through(0.0043, 0.0061, -0.002);
+  const auto entry = probe.deepest_in_tissue(box.rest_positions(), through, through + 0.03 * up);
+  REQUIRE(entry);
+  CHECK(entry->z() == doctest::Approx(0.0).epsilon(1e-12));
+  CHECK(entry->head<2>() == through.head<2>());
+  CHECK(probe.nearest(box.rest_positions(), *entry, up).depth == doctest::Approx(0.004).epsilon(1e-9));
+  // A blade too short to reach the layer, one beside it, and one above it: not in the tissue.
+  CHECK_FALSE(probe.deepest_in_tissue(box.rest_positions(), through, through + 0.001 * up));
+  CHECK_FALSE(
+      probe.deepest_in_tissue(box.rest_positions(), Vec3(-0.001, 0.005, -0.002), Vec3(-0.001, 0.005, 0.02)));
+  CHECK_FALSE(
+      probe.deepest_in_tissue(box.rest_positions(), Vec3(0.005, 0.005, 0.005), Vec3(0.005, 0.005, 0.02)));
+}
+
 TEST_CASE("score: the reference log make-log writes passes at 95 or more on every bundled scenario" *
           doctest::test_suite("slow")) {
   int scored = 0;
