@@ -14,16 +14,24 @@ SurfaceProbe::SurfaceProbe(const TetMesh& uncut) {
 
 namespace {
 
-// The nearest crossing of the ray from `tip` along the unit `dir` with a triangle of `faces` in
-// positions `x`: its parameter and the triangle's (unnormalised, outward) normal.
-struct RayCrossing {
+// The nearest crossing of the blade's line, from `tip` towards `back`, with a triangle of `faces` in
+// positions `x`: its distance from the tip and the triangle's (unnormalised, outward) normal, with
+// the line's unit direction and the blade's length. None for a blade of no length.
+struct BladeCrossing {
   double t = std::numeric_limits<double>::infinity();
   Vec3 normal = Vec3::Zero();
+  Vec3 dir = Vec3::Zero();
+  double length = 0;
+  [[nodiscard]] bool leaving() const { return normal.dot(dir) > 0.0; }
 };
 
-RayCrossing first_crossing(const std::vector<std::array<std::uint32_t, 3>>& faces, const std::vector<Vec3>& x,
-                           const Vec3& tip, const Vec3& dir) {
-  RayCrossing best;
+std::optional<BladeCrossing> first_crossing(const std::vector<std::array<std::uint32_t, 3>>& faces,
+                                            const std::vector<Vec3>& x, const Vec3& tip, const Vec3& back) {
+  BladeCrossing best;
+  best.length = (back - tip).norm();
+  if (!(best.length > 0.0)) return std::nullopt;
+  const Vec3 dir = (back - tip) / best.length;
+  best.dir = dir;
   for (const auto& f : faces) {
     const Vec3 &a = x[f[0]], &b = x[f[1]], &c = x[f[2]];
     // Moller-Trumbore, edges inclusive, so a ray through an edge or a vertex still meets the surface.
@@ -39,7 +47,8 @@ RayCrossing first_crossing(const std::vector<std::array<std::uint32_t, 3>>& face
     if (v < 0.0 || u + v > 1.0) continue;
     const double t = e2.dot(qv) / det;
     if (t < 0.0 || t >= best.t) continue;
-    best = {t, e1.cross(e2)};
+    best.t = t;
+    best.normal = e1.cross(e2);
   }
   return best;
 }
@@ -48,28 +57,20 @@ RayCrossing first_crossing(const std::vector<std::array<std::uint32_t, 3>>& face
 
 std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const Vec3& tip,
                                               const Vec3& back) const {
-  const Vec3 axis = back - tip;
-  const double length = axis.norm();
-  if (!(length > 0.0)) return std::nullopt;
-  const Vec3 dir = axis / length;
   // The nearest crossing of the surface either way: the tip is under the surface when the ray first
   // leaves the tissue, not when it first enters it (a tip above a fold of the organ).
-  const RayCrossing c = first_crossing(faces_, x, tip, dir);
-  if (!(c.normal.dot(dir) > 0.0)) return std::nullopt;
-  const Vec3 normal = c.normal.normalized();
-  return SurfaceHit{c.t * dir.dot(normal), tip + c.t * dir, normal};
+  const auto c = first_crossing(faces_, x, tip, back);
+  if (!c || !c->leaving()) return std::nullopt;
+  const Vec3 normal = c->normal.normalized();
+  return SurfaceHit{c->t * c->dir.dot(normal), tip + c->t * c->dir, normal};
 }
 
 std::optional<Vec3> SurfaceProbe::deepest_in_tissue(const std::vector<Vec3>& x, const Vec3& tip,
                                                     const Vec3& back) const {
-  const Vec3 axis = back - tip;
-  const double length = axis.norm();
-  if (!(length > 0.0)) return std::nullopt;
-  const Vec3 dir = axis / length;
-  const RayCrossing c = first_crossing(faces_, x, tip, dir);
-  if (!std::isfinite(c.t)) return std::nullopt;
-  if (c.normal.dot(dir) > 0.0) return tip;  // leaves first: the tip is in the tissue
-  if (c.t <= length) return Vec3(tip + c.t * dir);
+  const auto c = first_crossing(faces_, x, tip, back);
+  if (!c || !std::isfinite(c->t)) return std::nullopt;
+  if (c->leaving()) return tip;  // the tip is in the tissue
+  if (c->t <= c->length) return Vec3(tip + c->t * c->dir);
   return std::nullopt;
 }
 
