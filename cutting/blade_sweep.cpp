@@ -269,17 +269,39 @@ void BladeSweep::gather_candidates(const std::array<Vec3, 4>& quad) {
 void BladeSweep::sweep(const BladePose& prev, const BladePose& curr, SweepResult& out) {
   out.clear();
   touched_.clear();
+  // Quad corners in the order (P_k, T_k, T_k+1, P_k+1): tri 0 = (0,1,2), tri 1 = (0,2,3).
+  const std::array<Vec3, 4> quad = {prev.back, prev.tip, curr.tip, curr.back};
+  gather_candidates(quad);
+  cut_edges(prev, curr, quad, out);
+  cross_faces(prev, curr, out);
+  hold_blade_ends(curr);
+
+  std::sort(touched_.begin(), touched_.end());
+  touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+  out.tets.assign(touched_.begin(), touched_.end());
+
+  std::sort(out.edges.begin(), out.edges.end(), [](const EdgeCut& l, const EdgeCut& r) {
+    return std::tie(l.u, l.a, l.b) < std::tie(r.u, r.a, r.b);
+  });
+  auto by_u = [](const FacePierce& l, const FacePierce& r) {
+    return std::tie(l.u, l.tet, l.local_face) < std::tie(r.u, r.tet, r.local_face);
+  };
+  std::sort(out.pierces.begin(), out.pierces.end(), by_u);
+  std::sort(out.back_pierces.begin(), out.back_pierces.end(), by_u);
+  std::sort(out.crossings.begin(), out.crossings.end(), [](const FaceCrossing& l, const FaceCrossing& r) {
+    return std::tie(l.s, l.tet, l.local_face) < std::tie(r.s, r.tet, r.local_face);
+  });
+}
+
+// Edge cuts: each edge once, however many candidate tetrahedra share it.
+void BladeSweep::cut_edges(const BladePose& prev, const BladePose& curr, const std::array<Vec3, 4>& quad,
+                           SweepResult& out) {
   const Vec3& p0 = prev.back;
   const Vec3& t0 = prev.tip;
   const Vec3& t1 = curr.tip;
   const Vec3& p1 = curr.back;
-  // Quad corners in the order (P_k, T_k, T_k+1, P_k+1): tri 0 = (0,1,2), tri 1 = (0,2,3).
-  const std::array<Vec3, 4> quad = {p0, t0, t1, p1};
   const bool tri_ok[2] = {triangle_has_area(p0, t0, t1), triangle_has_area(p0, t1, p1)};
-  gather_candidates(quad);
   const auto& x = mesh_.positions();
-
-  // ---- edge cuts: each edge once, however many candidate tetrahedra share it ------------------
   edge_entries_.clear();
   for (std::uint32_t tet : candidates_) {
     const auto& v = mesh_.tet_vertex_indices(tet);
@@ -334,8 +356,15 @@ void BladeSweep::sweep(const BladePose& prev, const BladePose& curr, SweepResult
     }
     i = j;
   }
+}
 
-  // ---- faces: pierces of the tip and back paths, crossings of both blade positions ------------
+// Faces: pierces of the tip and back paths, crossings of both blade positions.
+void BladeSweep::cross_faces(const BladePose& prev, const BladePose& curr, SweepResult& out) {
+  const Vec3& p0 = prev.back;
+  const Vec3& t0 = prev.tip;
+  const Vec3& t1 = curr.tip;
+  const Vec3& p1 = curr.back;
+  const auto& x = mesh_.positions();
   face_entries_.clear();
   for (std::uint32_t tet : candidates_) {
     for (int f = 0; f < 4; ++f) {
@@ -389,8 +418,13 @@ void BladeSweep::sweep(const BladePose& prev, const BladePose& curr, SweepResult
     }
     i = j;
   }
+}
 
-  // ---- tetrahedra holding the current blade's end points -----------------------------------------
+// Tetrahedra holding the current blade's end points.
+void BladeSweep::hold_blade_ends(const BladePose& curr) {
+  const Vec3& t1 = curr.tip;
+  const Vec3& p1 = curr.back;
+  const auto& x = mesh_.positions();
   for (std::uint32_t tet : candidates_) {
     auto inside = [&](const Vec3& point) {
       for (int f = 0; f < 4; ++f) {
@@ -402,22 +436,6 @@ void BladeSweep::sweep(const BladePose& prev, const BladePose& curr, SweepResult
     };
     if (inside(t1) || inside(p1)) touched_.push_back(tet);
   }
-
-  std::sort(touched_.begin(), touched_.end());
-  touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
-  out.tets.assign(touched_.begin(), touched_.end());
-
-  std::sort(out.edges.begin(), out.edges.end(), [](const EdgeCut& l, const EdgeCut& r) {
-    return std::tie(l.u, l.a, l.b) < std::tie(r.u, r.a, r.b);
-  });
-  auto by_u = [](const FacePierce& l, const FacePierce& r) {
-    return std::tie(l.u, l.tet, l.local_face) < std::tie(r.u, r.tet, r.local_face);
-  };
-  std::sort(out.pierces.begin(), out.pierces.end(), by_u);
-  std::sort(out.back_pierces.begin(), out.back_pierces.end(), by_u);
-  std::sort(out.crossings.begin(), out.crossings.end(), [](const FaceCrossing& l, const FaceCrossing& r) {
-    return std::tie(l.s, l.tet, l.local_face) < std::tie(r.s, r.tet, r.local_face);
-  });
 }
 
 }  // namespace scalpel

@@ -182,6 +182,13 @@ class BladeSweep {
   Aabb fat_box(std::uint32_t tet) const;
   Aabb tight_box(std::uint32_t tet) const;
   void gather_candidates(const std::array<Vec3, 4>& quad);
+  // The passes of sweep() over the candidates: edges the swept quad (P_k, T_k, T_k+1, P_k+1)
+  // crosses, faces the tip and back paths pierce and the current blade crosses, tetrahedra holding
+  // the current blade's ends. Each adds the tetrahedra it touches to touched_.
+  void cut_edges(const BladePose& prev, const BladePose& curr, const std::array<Vec3, 4>& quad,
+                 SweepResult& out);
+  void cross_faces(const BladePose& prev, const BladePose& curr, SweepResult& out);
+  void hold_blade_ends(const BladePose& curr);
 
   const TetMesh& mesh_;
   Options options_;

@@ -61,13 +61,111 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
                                 static_cast<double>(local_.size())));
   st.local_nodes = local_.size();
 
-  // The sweeps on two threads: the region is split at the median along the longest side of its
-  // bounding box into H0 and H1, and the nodes are ordered I0 = H0, I1 = the nodes of H1 with no
-  // neighbour in H0, then the interface G = the rest of H1, each group in slot order. No block
-  // couples I0 and I1, so a sweep over them runs on both threads at once; G (12 per cent of the
-  // region during the incision of bench/bench_fem.cpp) is swept alone. Gauss-Seidel in this order
-  // needs as many iterations as in slot order (21.7 against 21.5 there, mass-spring 32.9 against
-  // 32.9), and the local solve takes 0.65 of the time it took on one thread.
+  group_local_region();
+  const auto interiors = [&](auto&& f) {  // f(group, index) on I0 and I1 at once
+    team.run(2, [&](std::size_t g) { f(groups_[g], g); });
+  };
+  const auto all = [&](auto&& f) {  // f on every group, when the groups do not depend on each other
+    team.run(3, [&](std::size_t g) { f(groups_[g], g); });
+  };
+  const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
+  std::array<double, 3> sum_a{}, sum_b{};  // per group, added in group order
+  const auto total = [](const std::array<double, 3>& v) { return v[0] + v[1] + v[2]; };
+
+  // Eisenstat's form ("Efficient implementation of a class of preconditioned conjugate gradient
+  // methods", SIAM J. Sci. Stat. Comput. 2, 1981): CG with the preconditioner D on
+  // A^ = (D + L)^{-1} A (D + U)^{-1}, the same iterates as CG with M, where
+  // A = (D + L) + (D + U) - D makes a product with A^ one sweep each way:
+  //   A^ p = t + (D + L)^{-1} (p - D t),  t = (D + U)^{-1} p.
+  // Unknown x^ = (D + U) dv, residual r^ = (D + L)^{-1} r.
+  const auto residuals = [&](const LocalGroup& g, std::size_t h) {
+    double sum = 0;
+    for (std::size_t k = 0; k < g.nodes.size(); ++k) sum += local_residual(g, k).squaredNorm();
+    sum_a[h] = sum;
+  };
+  // r^ = (D + L)^{-1} r, then p = D r^; sums ||r||^2 and r^ . D r^.
+  const auto start = [&](const LocalGroup& g, std::size_t h) {
+    double rl = 0, rz = 0;
+    for (std::size_t k = 0; k < g.nodes.size(); ++k) {
+      const std::uint32_t i = g.nodes[k];
+      rl += r_[i].squaredNorm();
+      z_[i] = diag_inverse_[i] * (r_[i] - g.lower(k, z_));
+      dv_[i].setZero();  // dv_ holds x^ until the end
+      p_[i] = diag(i) * z_[i];
+      rz += z_[i].dot(p_[i]);
+    }
+    sum_a[h] = rl;
+    sum_b[h] = rz;
+  };
+  interiors(start);
+  start(groups_[2], 2);
+  double rl = total(sum_a), rz = total(sum_b);
+  const double stop = std::max(settings_.local_tolerance * std::sqrt(rl), target);
+  // The true residual costs half a product: it is evaluated when rz, scaled by the ratio
+  // ||r||^2 / rz last seen, says the stop may be reached, and every eighth iteration.
+  double ratio = rz > 0 ? rl / rz : 0;
+  int it = 0;
+  double beta = 0;
+  // p = t + beta p (t holds D r^ of the last iteration) and t = (D + U)^{-1} p, backwards.
+  const auto backward = [&](const LocalGroup& g) {
+    for (std::size_t k = g.nodes.size(); k-- > 0;) {
+      const std::uint32_t i = g.nodes[k];
+      if (it > 0) p_[i] = t_[i] + beta * p_[i];
+      t_[i] = diag_inverse_[i] * (p_[i] - g.upper(k, t_));
+    }
+  };
+  // q = (D + L)^{-1} (p - D t), forwards; sums p . (q + t) = p . A^ p.
+  const auto forward = [&](const LocalGroup& g, std::size_t h) {
+    double pq = 0;
+    for (std::size_t k = 0; k < g.nodes.size(); ++k) {
+      const std::uint32_t i = g.nodes[k];
+      q_[i] = diag_inverse_[i] * (p_[i] - diag(i) * t_[i] - g.lower(k, q_));
+      pq += p_[i].dot(q_[i] + t_[i]);
+    }
+    sum_a[h] = pq;
+  };
+  while (std::sqrt(rl) > stop && it < max_iterations) {
+    backward(groups_[2]);
+    interiors([&](const LocalGroup& g, std::size_t h) {
+      backward(g);
+      forward(g, h);
+    });
+    forward(groups_[2], 2);
+    const double pq = total(sum_a);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    all([&](const LocalGroup& g, std::size_t h) {
+      double sum = 0;
+      for (const std::uint32_t i : g.nodes) {
+        dv_[i] += alpha * p_[i];
+        z_[i] -= alpha * (q_[i] + t_[i]);
+        t_[i] = diag(i) * z_[i];  // the preconditioned residual D r^, for rz and p
+        sum += z_[i].dot(t_[i]);
+      }
+      sum_b[h] = sum;
+    });
+    const double rz_new = total(sum_b);
+    ++it;
+    if (ratio * rz_new <= stop * stop || it % 8 == 0) {
+      all(residuals);
+      rl = total(sum_a);
+      ratio = rz_new > 0 ? rl / rz_new : 0;
+    }
+    beta = rz_new / rz;
+    rz = rz_new;
+  }
+  st.local_iterations = it;
+  finish_local_solve(team);
+}
+
+// The sweeps on two threads: the region is split at the median along the longest side of its
+// bounding box into H0 and H1, and the nodes are ordered I0 = H0, I1 = the nodes of H1 with no
+// neighbour in H0, then the interface G = the rest of H1, each group in slot order. No block
+// couples I0 and I1, so a sweep over them runs on both threads at once; G (12 per cent of the
+// region during the incision of bench/bench_fem.cpp) is swept alone. Gauss-Seidel in this order
+// needs as many iterations as in slot order (21.7 against 21.5 there, mass-spring 32.9 against
+// 32.9).
+void TissueModel::group_local_region() {
   const auto& x = mesh_.positions();
   std::sort(local_.begin(), local_.end());
   for (auto& group : groups_) group.nodes.clear();
@@ -126,129 +224,28 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
     }
     group.start.push_back(static_cast<std::uint32_t>(group.links.size()));
   }
-  const auto interiors = [&](auto&& f) {  // f(group, index) on I0 and I1 at once
-    team.run(2, [&](std::size_t g) { f(groups_[g], g); });
-  };
-  const auto all = [&](auto&& f) {  // f on every group, when the groups do not depend on each other
-    team.run(3, [&](std::size_t g) { f(groups_[g], g); });
-  };
-  // The couplings of the k-th node with y: those before it in the sweep order (lower) or after.
-  const auto coupled = [](const LocalGroup& g, std::uint32_t begin, std::uint32_t end,
-                          const std::vector<Vec3>& y) {
-    Vec3 s = Vec3::Zero();
-    for (std::uint32_t l = begin; l < end; ++l) s.noalias() += *g.links[l].block * y[g.links[l].col];
-    return s;
-  };
-  const auto lower = [&](const LocalGroup& g, std::size_t k, const std::vector<Vec3>& y) {
-    return coupled(g, g.start[2 * k], g.start[2 * k + 1], y);
-  };
-  const auto upper = [&](const LocalGroup& g, std::size_t k, const std::vector<Vec3>& y) {
-    return coupled(g, g.start[2 * k + 1], g.start[2 * k + 2], y);
-  };
-  const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
-  std::array<double, 3> sum_a{}, sum_b{};  // per group, added in group order
-  const auto total = [](const std::array<double, 3>& v) { return v[0] + v[1] + v[2]; };
+}
 
-  // Eisenstat's form ("Efficient implementation of a class of preconditioned conjugate gradient
-  // methods", SIAM J. Sci. Stat. Comput. 2, 1981): CG with the preconditioner D on
-  // A^ = (D + L)^{-1} A (D + U)^{-1}, the same iterates as CG with M, where
-  // A = (D + L) + (D + U) - D makes a product with A^ one sweep each way:
-  //   A^ p = t + (D + L)^{-1} (p - D t),  t = (D + U)^{-1} p.
-  // Unknown x^ = (D + U) dv, residual r^ = (D + L)^{-1} r.
-  // r_i = ((D + L) r^)_i, the residual the stop is defined on.
-  const auto residual = [&](const LocalGroup& g, std::size_t k) {
-    const std::uint32_t i = g.nodes[k];
-    return Vec3(diag(i) * z_[i] + lower(g, k, z_));
-  };
-  const auto residuals = [&](const LocalGroup& g, std::size_t h) {
-    double sum = 0;
-    for (std::size_t k = 0; k < g.nodes.size(); ++k) sum += residual(g, k).squaredNorm();
-    sum_a[h] = sum;
-  };
-  // r^ = (D + L)^{-1} r, then p = D r^; sums ||r||^2 and r^ . D r^.
-  const auto start = [&](const LocalGroup& g, std::size_t h) {
-    double rl = 0, rz = 0;
-    for (std::size_t k = 0; k < g.nodes.size(); ++k) {
-      const std::uint32_t i = g.nodes[k];
-      rl += r_[i].squaredNorm();
-      z_[i] = diag_inverse_[i] * (r_[i] - lower(g, k, z_));
-      dv_[i].setZero();  // dv_ holds x^ until the end
-      p_[i] = diag(i) * z_[i];
-      rz += z_[i].dot(p_[i]);
-    }
-    sum_a[h] = rl;
-    sum_b[h] = rz;
-  };
-  interiors(start);
-  start(groups_[2], 2);
-  double rl = total(sum_a), rz = total(sum_b);
-  const double stop = std::max(settings_.local_tolerance * std::sqrt(rl), target);
-  // The true residual costs half a product: it is evaluated when rz, scaled by the ratio
-  // ||r||^2 / rz last seen, says the stop may be reached, and every eighth iteration.
-  double ratio = rz > 0 ? rl / rz : 0;
-  int it = 0;
-  double beta = 0;
-  // p = t + beta p (t holds D r^ of the last iteration) and t = (D + U)^{-1} p, backwards.
-  const auto backward = [&](const LocalGroup& g) {
-    for (std::size_t k = g.nodes.size(); k-- > 0;) {
-      const std::uint32_t i = g.nodes[k];
-      if (it > 0) p_[i] = t_[i] + beta * p_[i];
-      t_[i] = diag_inverse_[i] * (p_[i] - upper(g, k, t_));
-    }
-  };
-  // q = (D + L)^{-1} (p - D t), forwards; sums p . (q + t) = p . A^ p.
-  const auto forward = [&](const LocalGroup& g, std::size_t h) {
-    double pq = 0;
-    for (std::size_t k = 0; k < g.nodes.size(); ++k) {
-      const std::uint32_t i = g.nodes[k];
-      q_[i] = diag_inverse_[i] * (p_[i] - diag(i) * t_[i] - lower(g, k, q_));
-      pq += p_[i].dot(q_[i] + t_[i]);
-    }
-    sum_a[h] = pq;
-  };
-  while (std::sqrt(rl) > stop && it < max_iterations) {
-    backward(groups_[2]);
-    interiors([&](const LocalGroup& g, std::size_t h) {
-      backward(g);
-      forward(g, h);
-    });
-    forward(groups_[2], 2);
-    const double pq = total(sum_a);
-    if (!(pq > 0)) break;
-    const double alpha = rz / pq;
-    all([&](const LocalGroup& g, std::size_t h) {
-      double sum = 0;
-      for (const std::uint32_t i : g.nodes) {
-        dv_[i] += alpha * p_[i];
-        z_[i] -= alpha * (q_[i] + t_[i]);
-        t_[i] = diag(i) * z_[i];  // the preconditioned residual D r^, for rz and p
-        sum += z_[i].dot(t_[i]);
-      }
-      sum_b[h] = sum;
-    });
-    const double rz_new = total(sum_b);
-    ++it;
-    if (ratio * rz_new <= stop * stop || it % 8 == 0) {
-      all(residuals);
-      rl = total(sum_a);
-      ratio = rz_new > 0 ? rl / rz_new : 0;
-    }
-    beta = rz_new / rz;
-    rz = rz_new;
-  }
+Vec3 TissueModel::local_residual(const LocalGroup& g, std::size_t k) const {
+  const std::uint32_t i = g.nodes[k];
+  return Vec3(rows_[i].blocks[rows_[i].diag] * z_[i] + g.lower(k, z_));
+}
+
+void TissueModel::finish_local_solve(parallel::Team& team) {
+  const auto interiors = [&](auto&& f) { team.run(2, [&](std::size_t g) { f(groups_[g], g); }); };
+  const auto all = [&](auto&& f) { team.run(3, [&](std::size_t g) { f(groups_[g], g); }); };
   // dv = (D + U)^{-1} x^ in place, backwards; r_L = (D + L) r^.
   const auto unknown = [&](const LocalGroup& g) {
     for (std::size_t k = g.nodes.size(); k-- > 0;) {
       const std::uint32_t i = g.nodes[k];
-      dv_[i] = diag_inverse_[i] * (dv_[i] - upper(g, k, dv_));
+      dv_[i] = diag_inverse_[i] * (dv_[i] - g.upper(k, dv_));
     }
   };
   unknown(groups_[2]);
   interiors([&](const LocalGroup& g, std::size_t) { unknown(g); });
   all([&](const LocalGroup& g, std::size_t) {
-    for (std::size_t k = 0; k < g.nodes.size(); ++k) r_[g.nodes[k]] = residual(g, k);
+    for (std::size_t k = 0; k < g.nodes.size(); ++k) r_[g.nodes[k]] = local_residual(g, k);
   });
-  st.local_iterations = it;
   // r_L is current; the ring just outside L sees the update through its columns in L.
   for (const std::uint32_t i : local_) v_[i] += dv_[i];
   for (const std::uint32_t i : local_)

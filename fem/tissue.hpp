@@ -286,10 +286,28 @@ class TissueModel {
     std::vector<std::uint32_t> nodes;  // slot order
     std::vector<LocalLink> links;
     std::vector<std::uint32_t> start;
+    // The couplings of the k-th node with y: those before it in the sweep order, and after it.
+    [[nodiscard]] Vec3 lower(std::size_t k, const std::vector<Vec3>& y) const {
+      return coupled(start[2 * k], start[2 * k + 1], y);
+    }
+    [[nodiscard]] Vec3 upper(std::size_t k, const std::vector<Vec3>& y) const {
+      return coupled(start[2 * k + 1], start[2 * k + 2], y);
+    }
+    [[nodiscard]] Vec3 coupled(std::uint32_t begin, std::uint32_t end, const std::vector<Vec3>& y) const {
+      Vec3 s = Vec3::Zero();
+      for (std::uint32_t l = begin; l < end; ++l) s.noalias() += *links[l].block * y[links[l].col];
+      return s;
+    }
   };
   static constexpr std::size_t kMinHalf = 64;  // a region of fewer than 2 kMinHalf nodes is not split
   std::array<LocalGroup, 3> groups_;
   std::vector<std::uint8_t> group_of_;  // per node slot of the region: its group
+  // The local solve's parts: the region's nodes in groups_ (the sweep order) with their
+  // couplings; the residual r_i = ((D + L) r^)_i of the k-th node of a group; the update dv from
+  // the CG's unknown, applied to v_ with r_ made current on the region and the ring around it.
+  void group_local_region();
+  [[nodiscard]] Vec3 local_residual(const LocalGroup& g, std::size_t k) const;
+  void finish_local_solve(parallel::Team& team);
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
   std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_, t_;

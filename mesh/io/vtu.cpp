@@ -130,6 +130,190 @@ long long count_attribute(const XmlReader& x, const XmlTag& tag, const std::stri
   return v;
 }
 
+// The arrays of a .vtu's one Piece, as read, with the lines errors point at.
+struct VtuArrays {
+  long long npoints = -1, ncells = -1;
+  std::vector<double> points, rest;
+  std::vector<long long> connectivity, offsets, types, region;
+  std::vector<int> connectivity_lines;
+  int connectivity_end_line = 0;
+  int piece_line = 0;
+  bool have_points = false, have_conn = false, have_offsets = false, have_types = false, have_region = false;
+};
+
+// Reads the DataArray that `tag` opens inside `parent` into `a` when the mesh needs it, else skips
+// it (an element of `stack` then when it has content).
+void read_data_array(XmlReader& x, const XmlTag& tag, const std::string& parent, VtuArrays& a,
+                     std::vector<std::pair<std::string, int>>& stack) {
+  const std::string* name_attr = tag.attribute("Name");
+  const std::string array = name_attr ? *name_attr : "";
+  const std::string field = "DataArray '" + array + "'";
+  const std::string* format = tag.attribute("format");
+  const bool wanted =
+      parent == "Points" ||
+      (parent == "Cells" && (array == "connectivity" || array == "offsets" || array == "types")) ||
+      (parent == "CellData" && array == "region") || (parent == "PointData" && array == "rest_position");
+  if (wanted && (!format || *format != "ascii"))
+    x.fail(tag.line, field,
+           "format \"" + (format ? *format : std::string()) +
+               "\" is not supported, write the .vtu with ASCII data arrays");
+  if (wanted && a.npoints < 0) x.fail(tag.line, field, "DataArray outside a Piece");
+  const auto points3 = static_cast<std::size_t>(a.npoints) * 3;
+  const auto cells = static_cast<std::size_t>(a.ncells);
+  if (parent == "Points") {
+    const std::string* nc = tag.attribute("NumberOfComponents");
+    if (!nc || *nc != "3") x.fail(tag.line, "Points NumberOfComponents", "must be 3");
+    a.points = read_array<double>(x, tag, "Points", points3, nullptr, parse_real);
+    a.have_points = true;
+  } else if (parent == "Cells" && array == "offsets") {
+    a.offsets = read_array<long long>(x, tag, field, cells, nullptr, parse_index);
+    a.have_offsets = true;
+  } else if (parent == "Cells" && array == "types") {
+    a.types = read_array<long long>(x, tag, field, cells, nullptr, parse_index);
+    a.have_types = true;
+  } else if (parent == "Cells" && array == "connectivity") {
+    // The size is known only from the offsets; read everything up to the closing tag.
+    if (!tag.self_closing) {
+      for (;;) {
+        const std::string_view t = x.token();
+        if (t.empty()) break;
+        long long v = 0;
+        if (!parse_int(t, v)) x.fail(x.token_line(), field, "bad number " + quoted(t));
+        a.connectivity.push_back(v);
+        a.connectivity_lines.push_back(x.token_line());
+      }
+      XmlTag close;
+      if (!x.next_tag(close) || !close.closing || close.name != "DataArray")
+        x.fail(x.line(), field, "expected </DataArray>");
+      a.connectivity_end_line = close.line;
+    } else {
+      a.connectivity_end_line = tag.line;
+    }
+    a.have_conn = true;
+  } else if (parent == "PointData" && array == "rest_position") {
+    const std::string* nc = tag.attribute("NumberOfComponents");
+    if (!nc || *nc != "3") x.fail(tag.line, field + " NumberOfComponents", "must be 3");
+    a.rest = read_array<double>(x, tag, field, points3, nullptr, parse_real);
+  } else if (parent == "CellData" && array == "region") {
+    a.region = read_array<long long>(x, tag, field, cells, nullptr, parse_integral);
+    a.have_region = true;
+  } else {
+    x.skip_text();
+    if (!tag.self_closing) stack.emplace_back(tag.name, tag.line);
+  }
+}
+
+// Walks the elements after <VTKFile>, checking that they nest, and reads the Piece's arrays.
+VtuArrays read_arrays(XmlReader& x, const XmlTag& file) {
+  VtuArrays a;
+  std::vector<std::pair<std::string, int>> stack;  // enclosing elements and the lines they open on
+  stack.emplace_back(file.name, file.line);
+  XmlTag tag;
+  while (x.next_tag(tag)) {
+    if (tag.closing) {
+      if (stack.empty() || stack.back().first != tag.name)
+        x.fail(tag.line, "</" + tag.name + ">",
+               stack.empty() ? "unexpected closing tag" : "expected </" + stack.back().first + ">");
+      stack.pop_back();
+      continue;
+    }
+    if (tag.name == "AppendedData")
+      x.fail(tag.line, "AppendedData", "appended (binary) data is not supported, write the .vtu in ASCII");
+    if (tag.name == "Piece") {
+      if (a.npoints >= 0) x.fail(tag.line, "Piece", "more than one Piece is not supported");
+      // A point is three numbers, a cell at least its offset and its type, each number followed by
+      // a space or a '<'.
+      a.npoints = count_attribute(x, tag, "NumberOfPoints", 6, "points");
+      a.ncells = count_attribute(x, tag, "NumberOfCells", 4, "cells");
+      a.piece_line = tag.line;
+    }
+    if (tag.name == "DataArray") {
+      read_data_array(x, tag, stack.empty() ? "" : stack.back().first, a, stack);
+      continue;
+    }
+    if (!tag.self_closing) stack.emplace_back(tag.name, tag.line);
+  }
+  if (!stack.empty())
+    x.fail(stack.back().second, "<" + stack.back().first + ">",
+           "unexpected end of file, the element is not closed");
+  if (a.npoints < 0) x.fail(x.line(), "Piece", "missing");
+  if (!a.have_points) x.fail(a.piece_line, "Points", "missing");
+  if (!a.have_conn) x.fail(a.piece_line, "DataArray 'connectivity'", "missing");
+  if (!a.have_offsets) x.fail(a.piece_line, "DataArray 'offsets'", "missing");
+  if (!a.have_types) x.fail(a.piece_line, "DataArray 'types'", "missing");
+  return a;
+}
+
+// The tetrahedron cell `c`, its points from connectivity[start, start + 4), with its region.
+void add_tetrahedron(const XmlReader& x, const VtuArrays& a, std::size_t c, long long start, long long end,
+                     RawMesh& raw) {
+  const auto first = static_cast<std::size_t>(start);
+  if (end - start != 4)
+    x.fail(first < a.connectivity_lines.size() ? a.connectivity_lines[first] : a.piece_line,
+           "DataArray 'connectivity'",
+           "tetrahedron (cell " + std::to_string(c) + ") has " + std::to_string(end - start) + " points");
+  std::array<std::uint32_t, 4> v{};
+  for (std::size_t k = 0; k < 4; ++k) {
+    const long long n = a.connectivity[first + k];
+    if (n < 0 || n >= a.npoints)
+      x.fail(
+          a.connectivity_lines[first + k], "DataArray 'connectivity'",
+          "point index " + std::to_string(n) + " is out of range [0, " + std::to_string(a.npoints - 1) + "]");
+    v[k] = static_cast<std::uint32_t>(n);
+  }
+  const long long r = a.have_region ? a.region[c] : 0;
+  if (r < std::numeric_limits<int>::min() || r > std::numeric_limits<int>::max())
+    x.fail(a.piece_line, "DataArray 'region'", "value " + std::to_string(r) + " is out of range");
+  raw.tets.push_back(v);
+  raw.tags.push_back(static_cast<int>(r));
+  raw.lines.push_back(a.connectivity_lines[first]);
+}
+
+// The mesh the arrays describe: points, rest positions, and the tetrahedra among the cells (lower
+// cells counted as skipped, other volume cells refused).
+RawMesh raw_mesh(const XmlReader& x, const VtuArrays& a, const std::string& path) {
+  RawMesh raw;
+  raw.tet_file = path;
+  raw.tags_are_ids = true;
+  raw.points.resize(static_cast<std::size_t>(a.npoints));
+  for (std::size_t i = 0; i < raw.points.size(); ++i)
+    raw.points[i] = Vec3(a.points[3 * i], a.points[3 * i + 1], a.points[3 * i + 2]);
+  if (!a.rest.empty()) {
+    raw.rest.resize(raw.points.size());
+    for (std::size_t i = 0; i < raw.rest.size(); ++i)
+      raw.rest[i] = Vec3(a.rest[3 * i], a.rest[3 * i + 1], a.rest[3 * i + 2]);
+  }
+  const long long used = a.ncells > 0 ? a.offsets.back() : 0;
+  if (used != static_cast<long long>(a.connectivity.size()))
+    x.fail(a.connectivity_end_line, "DataArray 'connectivity'",
+           std::to_string(a.connectivity.size()) + " values, the offsets say " + std::to_string(used));
+  long long start = 0;
+  for (std::size_t c = 0; c < static_cast<std::size_t>(a.ncells); ++c) {
+    const long long end = a.offsets[c];
+    if (end < start || end > static_cast<long long>(a.connectivity.size()))
+      x.fail(a.piece_line, "DataArray 'offsets'",
+             "offset " + std::to_string(end) + " of cell " + std::to_string(c) + " is out of range");
+    if (a.types[c] == kVtkTetra) {
+      add_tetrahedron(x, a, c, start, end, raw);
+    } else if (const VtkCell kind = vtk_cell(a.types[c]); kind == VtkCell::Lower) {
+      ++raw.skipped;
+    } else {
+      x.fail(
+          a.piece_line, "DataArray 'types'",
+          "cell " + std::to_string(c) + " has type " + std::to_string(a.types[c]) +
+              (kind == VtkCell::Unknown ? ", which is not a VTK cell type"
+                                        : ", a volume cell that is not a tetrahedron (VTK_TETRA, type 10): "
+                                          "mesh the volume with linear tetrahedra"));
+    }
+    start = end;
+  }
+  if (start != static_cast<long long>(a.connectivity.size()))
+    x.fail(a.piece_line, "DataArray 'connectivity'",
+           std::to_string(a.connectivity.size()) + " values, the offsets use " + std::to_string(start));
+  if (raw.tets.empty()) x.fail(a.piece_line, "Cells", "no tetrahedra (VTK_TETRA, type 10)");
+  return raw;
+}
+
 }  // namespace
 
 TetMesh read_vtu(const std::string& path, MeshFileInfo* info) {
@@ -143,166 +327,8 @@ TetMesh parse_vtu(std::string text, const std::string& path, MeshFileInfo* info)
   const std::string* type = tag.attribute("type");
   if (!type || *type != "UnstructuredGrid")
     x.fail(tag.line, "VTKFile type", "expected type=\"UnstructuredGrid\"");
-
-  std::vector<std::pair<std::string, int>> stack;  // enclosing elements and the lines they open on
-  stack.emplace_back(tag.name, tag.line);
-  long long npoints = -1, ncells = -1;
-  std::vector<double> points, rest;
-  std::vector<long long> connectivity, offsets, types, region;
-  std::vector<int> connectivity_lines;
-  int connectivity_end_line = 0;
-  bool have_points = false, have_conn = false, have_offsets = false, have_types = false, have_region = false;
-  int piece_line = 0;
-  while (x.next_tag(tag)) {
-    if (tag.closing) {
-      if (stack.empty() || stack.back().first != tag.name)
-        x.fail(tag.line, "</" + tag.name + ">",
-               stack.empty() ? "unexpected closing tag" : "expected </" + stack.back().first + ">");
-      stack.pop_back();
-      continue;
-    }
-    if (tag.name == "AppendedData")
-      x.fail(tag.line, "AppendedData", "appended (binary) data is not supported, write the .vtu in ASCII");
-    if (tag.name == "Piece") {
-      if (npoints >= 0) x.fail(tag.line, "Piece", "more than one Piece is not supported");
-      // A point is three numbers, a cell at least its offset and its type, each number followed by
-      // a space or a '<'.
-      npoints = count_attribute(x, tag, "NumberOfPoints", 6, "points");
-      ncells = count_attribute(x, tag, "NumberOfCells", 4, "cells");
-      piece_line = tag.line;
-    }
-    if (tag.name == "DataArray") {
-      const std::string parent = stack.empty() ? "" : stack.back().first;
-      const std::string* name_attr = tag.attribute("Name");
-      const std::string array = name_attr ? *name_attr : "";
-      const std::string field = "DataArray '" + array + "'";
-      const std::string* format = tag.attribute("format");
-      const bool wanted =
-          parent == "Points" ||
-          (parent == "Cells" && (array == "connectivity" || array == "offsets" || array == "types")) ||
-          (parent == "CellData" && array == "region") || (parent == "PointData" && array == "rest_position");
-      if (wanted && (!format || *format != "ascii"))
-        x.fail(tag.line, field,
-               "format \"" + (format ? *format : std::string()) +
-                   "\" is not supported, write the .vtu with ASCII data arrays");
-      if (wanted && npoints < 0) x.fail(tag.line, field, "DataArray outside a Piece");
-      if (parent == "Points") {
-        const std::string* nc = tag.attribute("NumberOfComponents");
-        if (!nc || *nc != "3") x.fail(tag.line, "Points NumberOfComponents", "must be 3");
-        points =
-            read_array<double>(x, tag, "Points", static_cast<std::size_t>(npoints) * 3, nullptr, parse_real);
-        have_points = true;
-      } else if (parent == "Cells" && array == "offsets") {
-        offsets =
-            read_array<long long>(x, tag, field, static_cast<std::size_t>(ncells), nullptr, parse_index);
-        have_offsets = true;
-      } else if (parent == "Cells" && array == "types") {
-        types = read_array<long long>(x, tag, field, static_cast<std::size_t>(ncells), nullptr, parse_index);
-        have_types = true;
-      } else if (parent == "Cells" && array == "connectivity") {
-        // The size is known only from the offsets; read everything up to the closing tag.
-        if (!tag.self_closing) {
-          for (;;) {
-            const std::string_view t = x.token();
-            if (t.empty()) break;
-            long long v = 0;
-            if (!parse_int(t, v)) x.fail(x.token_line(), field, "bad number " + quoted(t));
-            connectivity.push_back(v);
-            connectivity_lines.push_back(x.token_line());
-          }
-          XmlTag close;
-          if (!x.next_tag(close) || !close.closing || close.name != "DataArray")
-            x.fail(x.line(), field, "expected </DataArray>");
-          connectivity_end_line = close.line;
-        } else {
-          connectivity_end_line = tag.line;
-        }
-        have_conn = true;
-      } else if (parent == "PointData" && array == "rest_position") {
-        const std::string* nc = tag.attribute("NumberOfComponents");
-        if (!nc || *nc != "3") x.fail(tag.line, field + " NumberOfComponents", "must be 3");
-        rest = read_array<double>(x, tag, field, static_cast<std::size_t>(npoints) * 3, nullptr, parse_real);
-      } else if (parent == "CellData" && array == "region") {
-        region =
-            read_array<long long>(x, tag, field, static_cast<std::size_t>(ncells), nullptr, parse_integral);
-        have_region = true;
-      } else {
-        x.skip_text();
-        if (!tag.self_closing) stack.emplace_back(tag.name, tag.line);
-      }
-      continue;
-    }
-    if (!tag.self_closing) stack.emplace_back(tag.name, tag.line);
-  }
-  if (!stack.empty())
-    x.fail(stack.back().second, "<" + stack.back().first + ">",
-           "unexpected end of file, the element is not closed");
-  if (npoints < 0) x.fail(x.line(), "Piece", "missing");
-  if (!have_points) x.fail(piece_line, "Points", "missing");
-  if (!have_conn) x.fail(piece_line, "DataArray 'connectivity'", "missing");
-  if (!have_offsets) x.fail(piece_line, "DataArray 'offsets'", "missing");
-  if (!have_types) x.fail(piece_line, "DataArray 'types'", "missing");
-
-  RawMesh raw;
-  raw.tet_file = path;
-  raw.tags_are_ids = true;
-  raw.points.resize(static_cast<std::size_t>(npoints));
-  for (std::size_t i = 0; i < raw.points.size(); ++i)
-    raw.points[i] = Vec3(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
-  if (!rest.empty()) {
-    raw.rest.resize(raw.points.size());
-    for (std::size_t i = 0; i < raw.rest.size(); ++i)
-      raw.rest[i] = Vec3(rest[3 * i], rest[3 * i + 1], rest[3 * i + 2]);
-  }
-  const long long used = ncells > 0 ? offsets.back() : 0;
-  if (used != static_cast<long long>(connectivity.size()))
-    x.fail(connectivity_end_line, "DataArray 'connectivity'",
-           std::to_string(connectivity.size()) + " values, the offsets say " + std::to_string(used));
-  long long start = 0;
-  for (std::size_t c = 0; c < static_cast<std::size_t>(ncells); ++c) {
-    const long long end = offsets[c];
-    if (end < start || end > static_cast<long long>(connectivity.size()))
-      x.fail(piece_line, "DataArray 'offsets'",
-             "offset " + std::to_string(end) + " of cell " + std::to_string(c) + " is out of range");
-    if (types[c] == kVtkTetra) {
-      if (end - start != 4)
-        x.fail(static_cast<std::size_t>(start) < connectivity_lines.size()
-                   ? connectivity_lines[static_cast<std::size_t>(start)]
-                   : piece_line,
-               "DataArray 'connectivity'",
-               "tetrahedron (cell " + std::to_string(c) + ") has " + std::to_string(end - start) + " points");
-      std::array<std::uint32_t, 4> v{};
-      for (std::size_t k = 0; k < 4; ++k) {
-        const auto at = static_cast<std::size_t>(start) + k;
-        const long long n = connectivity[at];
-        if (n < 0 || n >= npoints)
-          x.fail(connectivity_lines[at], "DataArray 'connectivity'",
-                 "point index " + std::to_string(n) + " is out of range [0, " + std::to_string(npoints - 1) +
-                     "]");
-        v[k] = static_cast<std::uint32_t>(n);
-      }
-      const long long r = have_region ? region[c] : 0;
-      if (r < std::numeric_limits<int>::min() || r > std::numeric_limits<int>::max())
-        x.fail(piece_line, "DataArray 'region'", "value " + std::to_string(r) + " is out of range");
-      raw.tets.push_back(v);
-      raw.tags.push_back(static_cast<int>(r));
-      raw.lines.push_back(connectivity_lines[static_cast<std::size_t>(start)]);
-    } else if (const VtkCell kind = vtk_cell(types[c]); kind == VtkCell::Lower) {
-      ++raw.skipped;
-    } else {
-      x.fail(
-          piece_line, "DataArray 'types'",
-          "cell " + std::to_string(c) + " has type " + std::to_string(types[c]) +
-              (kind == VtkCell::Unknown ? ", which is not a VTK cell type"
-                                        : ", a volume cell that is not a tetrahedron (VTK_TETRA, type 10): "
-                                          "mesh the volume with linear tetrahedra"));
-    }
-    start = end;
-  }
-  if (start != static_cast<long long>(connectivity.size()))
-    x.fail(piece_line, "DataArray 'connectivity'",
-           std::to_string(connectivity.size()) + " values, the offsets use " + std::to_string(start));
-  if (raw.tets.empty()) x.fail(piece_line, "Cells", "no tetrahedra (VTK_TETRA, type 10)");
+  const VtuArrays arrays = read_arrays(x, tag);
+  RawMesh raw = raw_mesh(x, arrays, path);
   return build_mesh(raw, info);
 }
 
