@@ -132,8 +132,14 @@ void Simulation::on_sample(const ToolSample& s) {
     std::optional<double> material_depth;
     const Vec3 up = pose.back - pose.tip;
     const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
+    // A tip outside the tissue's box is never under its surface, whatever the ray test says where
+    // rounding lets the line slip between the triangles it enters through.
+    const auto inside_bounds = [&](const Vec3& p) {
+      return (p - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - p).minCoeff() >= 0;
+    };
     if ((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)
-      if (const auto deepest = surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back)) {
+      if (const auto deepest = surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
+          deepest && (*deepest != pose.tip || inside_bounds(pose.tip))) {
         hit = surface_->nearest(mesh_.positions(), *deepest, up);
         if (const auto at = cutter_->locate(*deepest, kBladeHalfThickness)) {
           rest_tip = Vec3::Zero();

@@ -77,10 +77,11 @@ std::optional<Vec3> SurfaceProbe::deepest_in_tissue(const std::vector<Vec3>& x, 
 SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p, const Vec3& up) const {
   SurfaceHit best;
   double best_d2 = std::numeric_limits<double>::infinity();
+  const double up_norm = up.norm();
   for (const auto& f : faces_) {
     const Vec3 &a = x[f[0]], &b = x[f[1]], &c = x[f[2]];
     const Vec3 n = (b - a).cross(c - a);
-    if (!(n.squaredNorm() > 0) || !(n.dot(up) > 0.0)) continue;
+    if (!(n.squaredNorm() > 0) || !(n.dot(up) > kFacingCos * n.norm() * up_norm)) continue;
     const Vec3 q = closest_point_on_triangle(p, a, b, c);
     const double d2 = (q - p).squaredNorm();
     if (d2 >= best_d2) continue;

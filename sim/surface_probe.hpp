@@ -49,12 +49,16 @@ class SurfaceProbe {
                                                       const Vec3& back) const;
 
   // The nearest point to `p`, in positions `x`, of the surface that faces `up` (outward normal
-  // within 90 degrees of it; the blade's axis towards its back): its distance as `depth`, the point
+  // within kFacingDeg of it; the blade's axis towards its back): its distance as `depth`, the point
   // and the outward normal of its triangle. With the blade's axis as `up` this is the depth below
-  // the skin the blade came through, on a curved organ too and whichever way the blade leans; the
-  // far side of a thin layer faces away and is not taken for the skin. Depth 0 when no triangle
-  // faces `up`.
+  // the skin the blade came through, on a curved organ too and however the blade leans within that
+  // angle of the skin's normal; the far side of a thin layer faces away and is not taken for the
+  // skin, nor is a side wall the blade stands parallel to (a slight lean does not make it skin).
+  // Depth 0 when no triangle faces `up`. Given rest positions, `up` is still the blade's axis now:
+  // the tissue's rotation under the blade is not undone.
   [[nodiscard]] SurfaceHit nearest(const std::vector<Vec3>& x, const Vec3& p, const Vec3& up) const;
+  static constexpr double kFacingDeg = 60;
+  static constexpr double kFacingCos = 0.5;  // cos(kFacingDeg)
 
  private:
   std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented

@@ -398,7 +398,7 @@ TaskScore TaskScorer::score(const CutEngine& cutter, const TetMesh& mesh) const 
     c.passed = dev_points > 0 && rel <= 0.5;
     if (dev_points == 0)
       c.why = "Nothing was cut.";
-    else if (1e3 * mean >= 0.005)  // a loss the sentence can show
+    else if (15 - c.points >= 0.005)  // a loss the points show, to two decimals
       c.why = format(
           "The cut lies %.2f mm from the line on average; points fall to zero at the tolerance (%.1f mm).",
           1e3 * mean, 1e3 * tol);

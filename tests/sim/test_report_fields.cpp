@@ -45,13 +45,14 @@ task:
 )";
 
 // The blade, 3 cm tall, its tip 2 mm below the box, drawn along +y through the whole box at
-// 20 mm/s, one sample a millisecond: 801 samples over 0.8 s.
+// 20 mm/s, one sample a millisecond: 801 samples over 0.8 s, 500 of them strictly inside the box
+// (none on its faces y = +-5 mm).
 std::vector<ToolSample> through_cut() {
   std::vector<ToolSample> out;
   for (int k = 0; k <= 800; ++k) {
     ToolSample s;
     s.t = 0.001 * k;
-    s.position = Vec3(kPlaneX, -0.008 + 0.02 * s.t, -0.012);
+    s.position = Vec3(kPlaneX, -0.00801 + 0.02 * s.t, -0.012);
     out.push_back(s);
   }
   return out;

@@ -119,6 +119,20 @@ TEST_CASE("surface probe: the deepest point of a blade through a thin layer, and
       probe.deepest_in_tissue(box.rest_positions(), Vec3(-0.001, 0.005, -0.002), Vec3(-0.001, 0.005, 0.02)));
   CHECK_FALSE(
       probe.deepest_in_tissue(box.rest_positions(), Vec3(0.005, 0.005, 0.005), Vec3(0.005, 0.005, 0.02)));
+  // Beside the layer, leaning over it: a blade that stops short of its side wall is not in it; one
+  // long enough enters through the wall, 2 mm up, and cuts from there.
+  const Vec3 beside(-0.001, 0.005, 0.001);
+  CHECK_FALSE(probe.deepest_in_tissue(box.rest_positions(), beside, beside + Vec3(0.0005, 0, 0.001)));
+  const auto wall = probe.deepest_in_tissue(box.rest_positions(), beside, beside + Vec3(0.005, 0, 0.01));
+  REQUIRE(wall);
+  CHECK(wall->x() == doctest::Approx(0.0).epsilon(1e-12));
+  CHECK(wall->z() == doctest::Approx(0.003).epsilon(1e-12));
+  // A side wall is not skin to an upright blade, nor to one leaning a hair towards it: the depth of
+  // a tip 1 mm from the wall x = 0 and 3.5 mm under the top stays 3.5 mm.
+  const Vec3 near_wall(0.001, 0.005, 0.0005);
+  const Vec3 hair(-1e-9, 0, 1);
+  CHECK(probe.nearest(box.rest_positions(), near_wall, up).depth == doctest::Approx(0.0035).epsilon(1e-9));
+  CHECK(probe.nearest(box.rest_positions(), near_wall, hair).depth == doctest::Approx(0.0035).epsilon(1e-9));
 }
 
 TEST_CASE("score: the reference log make-log writes passes at 95 or more on every bundled scenario" *
