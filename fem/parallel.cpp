@@ -142,8 +142,10 @@ void Team::work(int self) {
         generation_.wait(seen, std::memory_order_seq_cst);
       sleeping_workers_.fetch_sub(1, std::memory_order_relaxed);
     }
-    if (stop_.load(std::memory_order_acquire)) return;
+    // The generation first: the destructor sets stop_ before it posts its generation, so a worker
+    // that takes that generation for a job sees stop_ (and does not wait for a job after it).
     seen = generation_.load(std::memory_order_acquire);
+    if (stop_.load(std::memory_order_acquire)) return;
     const Job& job = jobs_[seen % 2];
     claim(self, seen, job.call.load(std::memory_order_relaxed), job.context.load(std::memory_order_relaxed),
           job.chunks.load(std::memory_order_relaxed));
