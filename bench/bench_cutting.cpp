@@ -9,6 +9,10 @@
 // continuation, paper section 6): its samples are timed separately, and its slowest sample is the
 // one that promotes the first incision's tetrahedra.
 //
+// The heap allocations a sample makes are counted too (base/count_allocations.hpp): a sample
+// that cuts nothing new should make none, since the cutter's per-step scratch is reused; one that
+// cuts allocates for the cut nodes and elements it adds.
+//
 // A harness of our own, since the figures are percentiles over samples: prints a table and, with
 // --json, one JSON object per mesh.
 //   bench_cutting [--sizes 12,26,55] [--json]
@@ -23,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "base/count_allocations.hpp"
 #include "cutting/cut_engine.hpp"
 #include "mesh/generators.hpp"
 
@@ -48,6 +53,10 @@ struct Result {
   std::size_t tets_after;
   double cross_p50, cross_p99, cross_max;  // [us] the crossing incision
   std::size_t promoted;                    // tetrahedra the crossing promoted
+  // Heap allocations per sample of the first incision: all samples, and those that added no node.
+  double allocs_p50, allocs_p99, allocs_max;
+  std::size_t quiet_samples;
+  double quiet_allocs_max;
 };
 
 // Percentiles of a list of sample times.
@@ -59,6 +68,12 @@ Percentiles percentiles(std::vector<double> us) {
   auto at = [&](double q) { return us[static_cast<size_t>(q * static_cast<double>(us.size() - 1))]; };
   return {at(0.5), at(0.99), us.back()};
 }
+
+// Per sample of one incision: its time [us] and heap allocations, and the allocations of those
+// samples that added no node.
+struct Samples {
+  std::vector<double> us, allocs, quiet_allocs;
+};
 
 Result run(int n) {
   const double h = 1e-3;  // [m] cell size
@@ -80,19 +95,32 @@ Result run(int n) {
     for (double u = 0; u < 12 * h; u += step) path.push_back(tip + u * along);
     for (Vec3 t = tip + 12 * h * along; t.z() < top + 0.5 * h; t.z() += step) path.push_back(t);
     cutter.place(blade(path.front()));
-    std::vector<double> us;
-    us.reserve(path.size());
+    Samples out;
+    out.us.reserve(path.size());
+    out.allocs.reserve(path.size());
+    out.quiet_allocs.reserve(path.size());
     for (std::size_t i = 1; i < path.size(); ++i) {
+      const BladePose pose = blade(path[i]);
+      const std::size_t allocs_before = heap_allocations();
       const auto t0 = std::chrono::steady_clock::now();
-      cutter.step(blade(path[i]));
-      us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+      const CutStepStats stats = cutter.step(pose);
+      const auto t1 = std::chrono::steady_clock::now();
+      const auto allocs = static_cast<double>(heap_allocations() - allocs_before);
+      out.us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+      out.allocs.push_back(allocs);
+      if (stats.nodes_created == 0) out.quiet_allocs.push_back(allocs);
     }
-    return us;
+    return out;
   };
-  const std::vector<double> us = incision(Vec3(mid - 5.79 * h, mid + 0.37 * h, 0), Vec3(1, 0, 0));
+  const Samples first_cut = incision(Vec3(mid - 5.79 * h, mid + 0.37 * h, 0), Vec3(1, 0, 0));
+  const std::vector<double>& us = first_cut.us;
   const std::size_t edges_cut = cutter.totals().edges_cut, tets_after = mesh.tet_count();
-  const std::vector<double> cross = incision(Vec3(mid + 0.13 * h, mid - 5.71 * h, 0), Vec3(0, 1, 0));
+  const std::vector<double> cross = incision(Vec3(mid + 0.13 * h, mid - 5.71 * h, 0), Vec3(0, 1, 0)).us;
   const Percentiles first = percentiles(us), second = percentiles(cross);
+  const Percentiles allocs = percentiles(first_cut.allocs);
+  const double quiet_max = first_cut.quiet_allocs.empty() ? 0.0
+                                                          : *std::max_element(first_cut.quiet_allocs.begin(),
+                                                                              first_cut.quiet_allocs.end());
   return {n,
           tets,
           us.size(),
@@ -105,7 +133,12 @@ Result run(int n) {
           second.p50,
           second.p99,
           second.max,
-          cutter.totals().promoted_tets};
+          cutter.totals().promoted_tets,
+          allocs.p50,
+          allocs.p99,
+          allocs.max,
+          first_cut.quiet_allocs.size(),
+          quiet_max};
 }
 
 }  // namespace
@@ -140,13 +173,23 @@ int main(int argc, char** argv) {
       std::printf(
           "{\"tets\": %zu, \"samples\": %zu, \"p50_us\": %.3f, \"p99_us\": %.3f, \"max_us\": %.3f, "
           "\"bytes_per_tet\": %.1f, \"edges_cut\": %zu, \"tets_after\": %zu, \"crossing_p50_us\": %.3f, "
-          "\"crossing_p99_us\": %.3f, \"crossing_max_us\": %.3f, \"promoted\": %zu}\n",
+          "\"crossing_p99_us\": %.3f, \"crossing_max_us\": %.3f, \"promoted\": %zu, \"allocs_p50\": %.0f, "
+          "\"allocs_p99\": %.0f, \"allocs_max\": %.0f, \"quiet_samples\": %zu, \"quiet_allocs_max\": %.0f}\n",
           r.tets, r.samples, r.p50, r.p99, r.max, r.bytes_per_tet, r.edges_cut, r.tets_after, r.cross_p50,
-          r.cross_p99, r.cross_max, r.promoted);
+          r.cross_p99, r.cross_max, r.promoted, r.allocs_p50, r.allocs_p99, r.allocs_max, r.quiet_samples,
+          r.quiet_allocs_max);
     else
       std::printf("%10zu %8zu %10.1f %10.1f %10.1f %12.1f %10zu |           %10.1f %10.1f %10.1f %9zu\n",
                   r.tets, r.samples, r.p50, r.p99, r.max, r.bytes_per_tet, r.edges_cut, r.cross_p50,
                   r.cross_p99, r.cross_max, r.promoted);
+  }
+  if (!json) {
+    std::printf(
+        "\nheap allocations per sample (first incision): %10s %10s %10s | samples adding no node: %8s %10s\n",
+        "p50", "p99", "max", "count", "max");
+    for (const Result& r : results)
+      std::printf("%10zu tets %34.0f %10.0f %10.0f |                         %8zu %10.0f\n", r.tets,
+                  r.allocs_p50, r.allocs_p99, r.allocs_max, r.quiet_samples, r.quiet_allocs_max);
   }
   if (!json && results.size() >= 2)
     std::printf("p99 ratio largest/smallest mesh: %.2f\n", results.back().p99 / results.front().p99);

@@ -59,16 +59,15 @@ bool CutEngine::opens(std::uint32_t id) const {
 
 std::vector<std::uint32_t> CutEngine::coarse_tets_around(const std::array<std::uint32_t, 3>& key) const {
   std::vector<std::uint32_t> out;
-  for (const std::uint32_t t : coarse_.node_tets(coarse_.node_handle(key[0]))) {
-    const auto& v = coarse_.tet_vertex_indices(t);
-    bool all = true;
-    for (int i = 1; i < 3; ++i)
-      if (key[static_cast<size_t>(i)] != kInvalidIndex)
-        all &= std::find(v.begin(), v.end(), key[static_cast<size_t>(i)]) != v.end();
-    if (all) out.push_back(t);
-  }
-  std::sort(out.begin(), out.end());
+  coarse_tets_around(key, out);
   return out;
+}
+
+void CutEngine::coarse_tets_around(const std::array<std::uint32_t, 3>& key,
+                                   std::vector<std::uint32_t>& out) const {
+  out.clear();
+  for_coarse_tets_around(key, [&](std::uint32_t t) { out.push_back(t); });
+  std::sort(out.begin(), out.end());
 }
 
 std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
@@ -111,7 +110,8 @@ std::uint32_t CutEngine::group_around(std::uint32_t id) {
   const GNode g = kCutBit | id;
   auto& items = scratch_.items;
   items.clear();
-  for (const std::uint32_t t : coarse_tets_around(n.key)) {
+  coarse_tets_around(n.key, scratch_.around);
+  for (const std::uint32_t t : scratch_.around) {
     const auto it = cut_tets_.find(t);
     if (it == cut_tets_.end()) continue;
     const auto& subs = it->second.subs;
@@ -203,7 +203,10 @@ void CutEngine::vote_copies(std::uint32_t id) {
     else
       votes[runs++] = votes[k];
   votes.resize(runs);
-  std::stable_sort(votes.begin(), votes.end(), [](const auto& a, const auto& b) { return a[2] > b[2]; });
+  // Largest counts first, ties in (group, copy) order (the runs are unique in it).
+  std::sort(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+    return a[2] > b[2] || (a[2] == b[2] && (a[0] < b[0] || (a[0] == b[0] && a[1] < b[1])));
+  });
 }
 
 // The copy each group uses (scratch_.copy_of). Each group keeps the copy with the most votes; a group
@@ -304,7 +307,9 @@ std::uint32_t CutEngine::CutNode::group(std::uint32_t coarse, std::uint32_t sub)
 // node groups: elements whose real nodes are unchanged stay (minimal removals, §4.3).
 void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
   CoarseTet& c = cut_tets_.at(t);
-  std::vector<std::array<NodeId, 4>> real(c.subs.size());
+  // Built in scratch, then swapped with the unit's: the unit's old storage is the next scratch.
+  auto& real = rebuild_scratch_.real;
+  real.resize(c.subs.size());
   for (std::uint32_t s = 0; s < c.subs.size(); ++s)
     for (int i = 0; i < 4; ++i) {
       const GNode g = c.subs[s][static_cast<size_t>(i)];
@@ -316,18 +321,22 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
       }
     }
   // Match old live elements to new ones by their real nodes (each old one used once).
-  std::vector<std::pair<std::array<NodeId, 4>, std::size_t>> old_by_nodes(c.real.size());
+  auto& old_by_nodes = rebuild_scratch_.old_by_nodes;
+  old_by_nodes.resize(c.real.size());
   for (std::size_t i = 0; i < c.real.size(); ++i) old_by_nodes[i] = {c.real[i], i};
   std::sort(old_by_nodes.begin(), old_by_nodes.end());
-  std::vector<TetId> live(real.size());
-  std::vector<bool> kept(c.live.size(), false);
-  std::vector<std::size_t> to_add;
+  auto& live = rebuild_scratch_.live;
+  live.assign(real.size(), TetId{});
+  auto& kept = rebuild_scratch_.kept;
+  kept.assign(c.live.size(), 0);
+  auto& to_add = rebuild_scratch_.to_add;
+  to_add.clear();
   for (std::size_t s = 0; s < real.size(); ++s) {
     auto it =
         std::lower_bound(old_by_nodes.begin(), old_by_nodes.end(), std::make_pair(real[s], std::size_t{0}));
     while (it != old_by_nodes.end() && it->first == real[s] && kept[it->second]) ++it;
     if (it != old_by_nodes.end() && it->first == real[s]) {
-      kept[it->second] = true;
+      kept[it->second] = 1;
       live[s] = c.live[it->second];
     } else {
       to_add.push_back(s);
@@ -351,8 +360,8 @@ void CutEngine::rebuild_live(std::uint32_t t, CutStepStats& stats) {
     live_to_coarse_[live[s].index] = t;
     ++stats.tets_created;
   }
-  c.real = std::move(real);
-  c.live = std::move(live);
+  c.real.swap(real);
+  c.live.swap(live);
 }
 
 // Each crack face once, at the real nodes of the sub-tetrahedron that owns it: one side's copies,

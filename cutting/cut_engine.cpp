@@ -120,19 +120,28 @@ std::vector<std::size_t> CutEngine::subdivision_sizes() const {
 
 // Subdivides the affected coarse tetrahedra again, records their transitions, opens the crack
 // where the cut surface now surrounds a node, and updates the live mesh.
-std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
-                              const std::set<std::uint32_t>& left_faces_tets, CutStepStats& stats) {
+std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
+                              const FlatSet<std::uint32_t>& left_faces_tets, CutStepStats& stats) {
+  auto& scratch = commit_scratch_;
   // The state before the step of every tetrahedron that may change, recorded once per step below.
-  std::map<std::uint32_t, MachineState> before;
+  auto& before = scratch.before;
+  before.clear();
   for (const auto* set : {&affected, &left_faces_tets})
     for (const std::uint32_t t : *set) {
       const auto it = cut_tets_.find(t);
-      before.try_emplace(t, it == cut_tets_.end()
-                                ? MachineState{}
-                                : MachineState{it->second.state.reference, it->second.complete});
+      before.emplace_back(t, it == cut_tets_.end()
+                                 ? MachineState{}
+                                 : MachineState{it->second.state.reference, it->second.complete});
     }
+  // By unit, each once (a unit in both sets has the same state in each). std::sort, as every sort of
+  // a step: std::stable_sort allocates a buffer.
+  std::sort(before.begin(), before.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  before.erase(std::unique(before.begin(), before.end(),
+                           [](const auto& a, const auto& b) { return a.first == b.first; }),
+               before.end());
   // Subdivide the affected tetrahedra again.
-  std::set<std::uint32_t> regroup_ids;
+  auto& regroup_ids = scratch.regroup_ids;
+  regroup_ids.clear();
   for (const std::uint32_t t : affected) {
     auto [it, fresh] = cut_tets_.try_emplace(t);
     CoarseTet& c = it->second;
@@ -164,31 +173,34 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
       const std::uint32_t id = face_node(mid_nodes_, sorted_key(fv[0], fv[1], fv[2]));
       crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
     }
-    if (affected.count(t))
+    if (affected.contains(t))
       c.complete = !crossed && c.topology.edges != 0;
     else if (!crossed && c.topology.edges != 0)
       c.complete = true;
     const MachineState to{c.state.reference, c.complete};
     if (to == from) continue;
     ++stats.transitions;
-    ++totals_.transitions[table_.label(from.topology, from.complete) + "->" +
-                          table_.label(to.topology, to.complete)];
     ++totals_.state_transitions[{from.key(), to.key()}];
   }
 
   // Open the crack where the cut surface now surrounds a node.
-  std::set<std::uint32_t> rebuild = affected;
-  std::vector<std::uint32_t> regrouped;
+  auto& rebuild = scratch.rebuild;
+  rebuild.clear();
+  rebuild.insert(affected.begin(), affected.end());
+  auto& regrouped = scratch.regrouped;
+  regrouped.clear();
   for (const std::uint32_t id : regroup_ids) regroup(id, regrouped);
   rebuild.insert(regrouped.begin(), regrouped.end());
   for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
   // A copy no group took (groups that merged again once a crack face between them went, e.g. a
   // subdivision undone by tremble, §5.1) has lost its elements with the rebuild: it goes, or the
   // tissue would keep a node it never moves. Promoted units may still hold a pinned node's copy.
-  std::vector<NodeId> unused;
+  auto& unused = scratch.unused;
+  unused.clear();
+  auto& index = scratch.copy_index;
   for (const std::uint32_t id : regroup_ids) {
     CutNode& n = cut_nodes_[id];
-    std::vector<std::uint32_t> index(n.copies.size(), kInvalidIndex);
+    index.assign(n.copies.size(), kInvalidIndex);
     for (const auto& e : n.group_of) index[e.group] = 0;
     std::uint32_t kept = 0;
     for (std::uint32_t k = 0; k < n.copies.size(); ++k) {
@@ -204,6 +216,15 @@ std::size_t CutEngine::commit(const std::set<std::uint32_t>& affected,
     for (auto& e : n.group_of) e.group = index[e.group];
   }
   return remove_nodes(unused);
+}
+
+std::map<std::string, std::size_t> CutEngine::transitions_by_label() const {
+  std::map<std::string, std::size_t> out;
+  for (const auto& [pair, count] : totals_.state_transitions) {
+    const MachineState from = MachineState::from_key(pair.first), to = MachineState::from_key(pair.second);
+    out[table_.label(from.topology, from.complete) + "->" + table_.label(to.topology, to.complete)] += count;
+  }
+  return out;
 }
 
 CutStepStats CutEngine::step(const BladePose& pose) {
@@ -283,7 +304,8 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
   const BladePose prev = blade_;
   collide(prev, pose, tool_moved, stats);
   const std::size_t nodes_before = mesh_.node_count();
-  StepEvents ev;
+  StepEvents& ev = step_events_;
+  ev.clear();
   edge_events(prev, pose, ev, stats);
   pierce_events(ev, stats);
   crossing_events(prev, pose, ev, stats);
@@ -334,6 +356,19 @@ void CutEngine::collide(const BladePose& prev, const BladePose& pose, bool tool_
   stats.tets_touched = sweep_result_.tets.size();
 }
 
+void CutEngine::StepEvents::clear() {
+  changed_faces.clear();
+  positioned_faces.clear();
+  affected.clear();
+  new_edges.clear();
+  sealed_now.clear();
+  tip_left.clear();
+  crossing_now.clear();
+  left_faces_tets.clear();
+  pierced.clear();
+  edges.clear();
+}
+
 bool CutEngine::skip_sealed(const Key3& k, StepEvents& ev) const {
   if (!sealed(k)) return false;
   ev.sealed_now.insert(k);
@@ -348,10 +383,11 @@ Vec3 CutEngine::face_bary(const Key3& k, const Vec3& point) const {
 // Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
 void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEvents& ev,
                             CutStepStats& stats) {
-  std::vector<const EdgeCut*> edges;
+  auto& edges = ev.edges;
   for (const auto& e : sweep_result_.edges) edges.push_back(&e);
-  std::stable_sort(edges.begin(), edges.end(),
-                   [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u; });
+  // Stable: crossings at one u keep the sweep's order (their addresses, in one vector).
+  std::sort(edges.begin(), edges.end(),
+            [](const EdgeCut* a, const EdgeCut* b) { return a->u < b->u || (a->u == b->u && a < b); });
   for (const EdgeCut* e : edges) {
     const Key3 k = edge_key(e->a, e->b);
     if (skip_sealed(k, ev)) continue;
@@ -372,7 +408,7 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
         n.registered = false;
         n.bary = Vec3(1.0 - t, t, 0.0);
         place_cut_node(known->second);
-        for (const std::uint32_t c : coarse_tets_around(k)) ev.affected.insert(c);
+        for_coarse_tets_around(k, [&](std::uint32_t c) { ev.affected.insert(c); });
         ++stats.replaced_crossings;
         ++stats.edges_cut;
       } else {
@@ -395,17 +431,22 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
 void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {
   // Tip pierces: entry nodes (§4.1). A pierce of a face that holds an entry node from an earlier
   // step is the tip leaving by the face it came in by (§5.1, handled below).
-  // Per pierced face: the tetrahedron the tip goes into (kInvalidIndex: out of the mesh) and the
-  // point.
-  std::map<Key3, std::pair<std::uint32_t, Vec3>> pierced;
-  for (const auto& p : sweep_result_.pierces) {
-    const auto [it, fresh] =
-        pierced.try_emplace(sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), kInvalidIndex, p.point);
-    if (p.entering) it->second.first = p.tet;
-  }
-  for (const auto& [k, pierce] : pierced) {
+  // Per pierced face, once: the tetrahedron the tip goes into last (kInvalidIndex: out of the
+  // mesh) and the first point, in the order of the faces' keys.
+  auto& pierced = ev.pierced;
+  for (const auto& p : sweep_result_.pierces)
+    pierced.push_back({sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), p.tet, p.entering, p.point,
+                       static_cast<std::uint32_t>(pierced.size())});
+  std::sort(pierced.begin(), pierced.end(), [](const StepEvents::Pierce& a, const StepEvents::Pierce& b) {
+    return a.face < b.face || (a.face == b.face && a.order < b.order);
+  });
+  for (std::size_t i = 0; i < pierced.size();) {
+    const Key3 k = pierced[i].face;
+    const Vec3 point = pierced[i].point;
+    std::uint32_t into = kInvalidIndex;
+    for (; i < pierced.size() && pierced[i].face == k; ++i)
+      if (pierced[i].entering) into = pierced[i].tet;
     if (skip_sealed(k, ev)) continue;
-    const auto [into, point] = pierce;
     const auto known = entry_nodes_.find(k);
     if (known != entry_nodes_.end()) {
       // Back the way it came: the tip leaves by the face it entered. The same way again is the face
@@ -441,7 +482,7 @@ void CutEngine::crossing_events(const BladePose& prev, const BladePose& pose, St
   for (const auto& c : sweep_result_.crossings) {
     const Key3 k = sorted_key(c.nodes[0], c.nodes[1], c.nodes[2]);
     if (skip_sealed(k, ev)) continue;
-    if (!ev.crossing_now.insert(k).second) continue;
+    if (!ev.crossing_now.insert(k)) continue;
     const Vec3 sample = face_bary(k, c.point);
     const Vec3 w = clamp_interior(sample, options_.min_face_bary);
     std::uint32_t id = face_node(mid_nodes_, k);
@@ -465,10 +506,10 @@ void CutEngine::crossing_events(const BladePose& prev, const BladePose& pose, St
     ev.positioned_faces.insert(k);
   }
   for (const Key3& k : crossing_faces_) {
-    if (ev.crossing_now.count(k)) continue;
+    if (ev.crossing_now.contains(k)) continue;
     cut_nodes_[mid_nodes_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
     ev.positioned_faces.insert(k);
-    for (const std::uint32_t t : coarse_tets_around(k)) ev.left_faces_tets.insert(t);
+    for_coarse_tets_around(k, [&](std::uint32_t t) { ev.left_faces_tets.insert(t); });
   }
   crossing_faces_.clear();
   for (const Key3& k : ev.crossing_now)
@@ -485,7 +526,7 @@ void CutEngine::tremble_at_faces(StepEvents& ev, CutStepStats& stats) {
       ++stats.recrossed_faces;  // the tip crosses a cut face again: the recursive case (§6)
       continue;
     }
-    undo_face(k, !crossing_faces_.count(k));
+    undo_face(k, !crossing_faces_.contains(k));
     ev.changed_faces.insert(k);
     ++stats.undone_faces;
   }
@@ -494,7 +535,7 @@ void CutEngine::tremble_at_faces(StepEvents& ev, CutStepStats& stats) {
 void CutEngine::place_face_nodes(StepEvents& ev) {
   // Every face around a new cut edge carries the trace of the swept surface through it.
   for (const Key3& k : ev.new_edges) {
-    for (const std::uint32_t t : coarse_tets_around(k)) ev.affected.insert(t);
+    for_coarse_tets_around(k, [&](std::uint32_t t) { ev.affected.insert(t); });
     for (const Key3& fk : faces_around_edge(k)) {
       ev.positioned_faces.insert(fk);
       if (face_node(mid_nodes_, fk) == kInvalidIndex) {
@@ -513,7 +554,7 @@ void CutEngine::place_face_nodes(StepEvents& ev) {
     if (cut_nodes_[id].entry_subtriangle != before) ev.changed_faces.insert(k);
   }
   for (const Key3& k : ev.changed_faces)
-    for (const std::uint32_t t : coarse_tets_around(k)) ev.affected.insert(t);
+    for_coarse_tets_around(k, [&](std::uint32_t t) { ev.affected.insert(t); });
 }
 
 CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool complete) {
@@ -544,7 +585,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
     }
     if (local.faces & (1u << f)) faces.insert(k);
   }
-  std::set<std::uint32_t> affected;
+  FlatSet<std::uint32_t> affected;
   for (const Key3& k : faces) {
     const std::uint32_t id = make(mid_nodes_, CutNode::Kind::Mid, k, Vec3(0.45, 0.3, 0.25));
     CutNode& n = cut_nodes_[id];
@@ -561,7 +602,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   for (const auto& [k, id] : entry_nodes_)
     for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
   affected.insert(t);
-  const std::size_t removed = commit(affected, {}, stats);
+  const std::size_t removed = commit(affected, FlatSet<std::uint32_t>{}, stats);
   stats.nodes_created = mesh_.node_count() + removed - nodes_before;
   totals_.add(stats);
   return stats;

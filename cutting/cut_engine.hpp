@@ -50,6 +50,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "base/flat_set.hpp"
 #include "cutting/blade_sweep.hpp"
 #include "cutting/cut_state.hpp"
 #include "cutting/cut_table.hpp"
@@ -153,9 +154,8 @@ struct CutTotals {
   int max_recursion_depth = 0;
   std::size_t tets_created = 0, tets_removed = 0, nodes_created = 0;
   std::size_t coarse_tets_cut = 0;
-  std::map<std::string, std::size_t> transitions;  // "A0->B0": count
-  // The same, by full state (MachineState::key() of the state before and after the step): what
-  // tests hold against the table's machine.
+  // Changes of state, by full state (MachineState::key() of the state before and after the step):
+  // what tests hold against the table's machine. By label: CutEngine::transitions_by_label().
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> state_transitions;
   void add(const CutStepStats& s);
 };
@@ -185,6 +185,8 @@ class CutEngine {
   CutStepStats follow_tissue();
 
   [[nodiscard]] const CutTotals& totals() const { return totals_; }
+  // CutTotals::state_transitions by the script's labels: "A0->B0": count.
+  [[nodiscard]] std::map<std::string, std::size_t> transitions_by_label() const;
   [[nodiscard]] const TetMesh& coarse() const { return coarse_; }
   // The state of a coarse tetrahedron (by slot): topology in local labels, or empty topology.
   [[nodiscard]] CutTopology topology(std::uint32_t coarse_slot) const;
@@ -245,16 +247,28 @@ class CutEngine {
   // Sweeps the blade from its last pose to `pose` and applies every event; `tool_moved`: a tool
   // sample (false: the tissue moved under the blade).
   CutStepStats sweep_to(const BladePose& pose, bool tool_moved);
-  // What the events of one step touch, for the stages after them.
+  // What the events of one step touch, for the stages after them. One instance, cleared at each
+  // step: its storage is reused.
   struct StepEvents {
-    std::set<std::array<std::uint32_t, 3>> changed_faces;     // topology (mid or entry node) is new
-    std::set<std::array<std::uint32_t, 3>> positioned_faces;  // mid node to be placed again
-    std::set<std::uint32_t> affected;                         // coarse tetrahedra to subdivide again
-    std::vector<std::array<std::uint32_t, 3>> new_edges;      // edges that gained an edge node
-    std::set<std::array<std::uint32_t, 3>> sealed_now;        // sealed faces and edges crossed
-    std::set<std::array<std::uint32_t, 3>> tip_left;          // faces the tip left by the way it came
-    std::set<std::array<std::uint32_t, 3>> crossing_now;      // faces the blade crosses
-    std::set<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
+    FlatSet<std::array<std::uint32_t, 3>> changed_faces;     // topology (mid or entry node) is new
+    FlatSet<std::array<std::uint32_t, 3>> positioned_faces;  // mid node to be placed again
+    FlatSet<std::uint32_t> affected;                         // coarse tetrahedra to subdivide again
+    std::vector<std::array<std::uint32_t, 3>> new_edges;     // edges that gained an edge node
+    FlatSet<std::array<std::uint32_t, 3>> sealed_now;        // sealed faces and edges crossed
+    FlatSet<std::array<std::uint32_t, 3>> tip_left;          // faces the tip left by the way it came
+    FlatSet<std::array<std::uint32_t, 3>> crossing_now;      // faces the blade crosses
+    FlatSet<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
+    // The sweep's pierces by face key (sorted, sweep order within a face).
+    struct Pierce {
+      std::array<std::uint32_t, 3> face;
+      std::uint32_t tet;
+      bool entering;
+      Vec3 point;
+      std::uint32_t order;  // in the sweep
+    };
+    std::vector<Pierce> pierced;
+    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings in sweep order
+    void clear();
   };
   // The stages of sweep_to(): the sweep and the continuation's passes, then each kind of event.
   void collide(const BladePose& prev, const BladePose& pose, bool tool_moved, CutStepStats& stats);
@@ -297,9 +311,14 @@ class CutEngine {
   void choose_copies(std::uint32_t cut_id, std::uint32_t groups);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
   // Returns how many real nodes it removed (copies no element uses any more).
-  std::size_t commit(const std::set<std::uint32_t>& affected, const std::set<std::uint32_t>& left_faces_tets,
+  std::size_t commit(const FlatSet<std::uint32_t>& affected, const FlatSet<std::uint32_t>& left_faces_tets,
                      CutStepStats& stats);
+  // The coarse tetrahedra holding a face or an edge (key {a, b, kInvalidIndex}): f(slot) for each,
+  // in no particular order; coarse_tets_around() sorted.
+  template <class F>
+  void for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const;
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
+  void coarse_tets_around(const std::array<std::uint32_t, 3>& key, std::vector<std::uint32_t>& out) const;
   bool is_crack_face(GNode a, GNode b, GNode c) const;
   // Crack faces of the subdivisions of `units`, each once (face `face` of sub-tetrahedron `sub`).
   struct CrackFace {
@@ -359,7 +378,7 @@ class CutEngine {
   std::map<std::array<std::uint32_t, 3>, std::uint32_t> mid_nodes_;    // key: sorted face slots
   std::map<std::array<std::uint32_t, 3>, std::uint32_t> entry_nodes_;  // key: sorted face slots
   std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
-  std::set<std::array<std::uint32_t, 3>> crossing_faces_;              // faces the blade crosses now
+  FlatSet<std::array<std::uint32_t, 3>> crossing_faces_;               // faces the blade crosses now
   std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
   // By unit slot: the live tetrahedron of a unit not cut yet, and the unit's recursion level. Unit
   // node slots mirror live node slots (a promoted sub-tetrahedron keeps its live nodes).
@@ -401,7 +420,24 @@ class CutEngine {
     std::vector<std::uint32_t> copy_of;
     std::vector<std::uint8_t> taken;
     std::vector<std::uint32_t> item_group;  // the group of each item
+    std::vector<std::uint32_t> around;      // the coarse tetrahedra around the node
   } scratch_;
+  // Scratch of rebuild_live().
+  struct {
+    std::vector<std::array<NodeId, 4>> real;
+    std::vector<std::pair<std::array<NodeId, 4>, std::size_t>> old_by_nodes;
+    std::vector<TetId> live;
+    std::vector<std::uint8_t> kept;
+    std::vector<std::size_t> to_add;
+  } rebuild_scratch_;
+  // Scratch of sweep_to() and commit(), kept to avoid allocating on every step.
+  StepEvents step_events_;
+  struct {
+    std::vector<std::pair<std::uint32_t, MachineState>> before;  // by unit, sorted: its state before the step
+    FlatSet<std::uint32_t> regroup_ids, rebuild;
+    std::vector<std::uint32_t> regrouped, copy_index;
+    std::vector<NodeId> unused;
+  } commit_scratch_;
   CutTotals totals_;
 };
 

@@ -187,4 +187,15 @@ inline std::optional<std::array<double, 4>> volume_weights(const Vec3& p, const 
 
 }  // namespace cut_internal
 
+template <class F>
+void CutEngine::for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const {
+  for (const std::uint32_t t : coarse_.node_tets(coarse_.node_handle(key[0]))) {
+    const auto& v = coarse_.tet_vertex_indices(t);
+    bool all = true;
+    for (std::size_t i = 1; i < 3; ++i)
+      if (key[i] != kInvalidIndex) all &= std::find(v.begin(), v.end(), key[i]) != v.end();
+    if (all) f(t);
+  }
+}
+
 }  // namespace scalpel

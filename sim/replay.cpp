@@ -373,7 +373,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   report["mesh"] = {{"initial", mesh_json(initial)}, {"final", mesh_json(summarize(sim.mesh()))}};
 
   json transitions = json::object();
-  for (const auto& [name, count] : totals.transitions) transitions[name] = count;
+  for (const auto& [name, count] : cutter.transitions_by_label()) transitions[name] = count;
   const auto sizes = cutter.subdivision_sizes();
   json histogram = json::object();
   std::map<std::size_t, std::size_t> by_size;

@@ -351,7 +351,7 @@ TEST_CASE("example 4 (Fig. 11): a tetrahedron cut over one edge without a pierce
   CHECK(cutter.totals().edges_cut == 1);
   CHECK(cutter.totals().face_pierces == 0);
   CHECK(cutter.state_label_of(0) == "A0");
-  CHECK(cutter.totals().transitions.at("O0->A0") == 1);
+  CHECK(cutter.transitions_by_label().at("O0->A0") == 1);
   CHECK(mesh.tet_count() == 6);  // one edge, two crossed faces: the in-progress pattern of section 4.1
 }
 
