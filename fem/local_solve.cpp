@@ -62,12 +62,8 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
   st.local_nodes = local_.size();
 
   group_local_region();
-  const auto interiors = [&](auto&& f) {  // f(group, index) on I0 and I1 at once
-    team.run(2, [&](std::size_t g) { f(groups_[g], g); });
-  };
-  const auto all = [&](auto&& f) {  // f on every group, when the groups do not depend on each other
-    team.run(3, [&](std::size_t g) { f(groups_[g], g); });
-  };
+  const auto interiors = [&](auto&& f) { for_interior_groups(team, f); };  // I0 and I1 at once
+  const auto all = [&](auto&& f) { for_all_groups(team, f); };
   const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
   std::array<double, 3> sum_a{}, sum_b{};  // per group, added in group order
   const auto total = [](const std::array<double, 3>& v) { return v[0] + v[1] + v[2]; };
@@ -232,8 +228,6 @@ Vec3 TissueModel::local_residual(const LocalGroup& g, std::size_t k) const {
 }
 
 void TissueModel::finish_local_solve(parallel::Team& team) {
-  const auto interiors = [&](auto&& f) { team.run(2, [&](std::size_t g) { f(groups_[g], g); }); };
-  const auto all = [&](auto&& f) { team.run(3, [&](std::size_t g) { f(groups_[g], g); }); };
   // dv = (D + U)^{-1} x^ in place, backwards; r_L = (D + L) r^.
   const auto unknown = [&](const LocalGroup& g) {
     for (std::size_t k = g.nodes.size(); k-- > 0;) {
@@ -242,8 +236,8 @@ void TissueModel::finish_local_solve(parallel::Team& team) {
     }
   };
   unknown(groups_[2]);
-  interiors([&](const LocalGroup& g, std::size_t) { unknown(g); });
-  all([&](const LocalGroup& g, std::size_t) {
+  for_interior_groups(team, [&](const LocalGroup& g, std::size_t) { unknown(g); });
+  for_all_groups(team, [&](const LocalGroup& g, std::size_t) {
     for (std::size_t k = 0; k < g.nodes.size(); ++k) r_[g.nodes[k]] = local_residual(g, k);
   });
   // r_L is current; the ring just outside L sees the update through its columns in L.

@@ -308,6 +308,16 @@ class TissueModel {
   void group_local_region();
   [[nodiscard]] Vec3 local_residual(const LocalGroup& g, std::size_t k) const;
   void finish_local_solve(parallel::Team& team);
+  // f(group, index) on the team: on the two interior groups at once, or on all three when they do
+  // not depend on each other.
+  template <class F>
+  void for_interior_groups(parallel::Team& team, F&& f) {
+    team.run(2, [&](std::size_t g) { f(groups_[g], g); });
+  }
+  template <class F>
+  void for_all_groups(parallel::Team& team, F&& f) {
+    team.run(3, [&](std::size_t g) { f(groups_[g], g); });
+  }
 
   // Step scratch, sized to the node capacity (no allocation in the hot loops).
   std::vector<Vec3> b_, v_, r_, z_, p_, q_, dv_, t_;

@@ -111,15 +111,24 @@ fs::path folder_with_log(const std::string& name) {
   return dir;
 }
 
+// The through-cut replayed in a fresh folder (each case replays on its own, to stand alone).
+struct HeldBoxRun {
+  fs::path dir;
+  ReplayResult result;
+};
+HeldBoxRun replay_held_box(const std::string& name) {
+  HeldBoxRun run{folder_with_log(name), {}};
+  const Scenario scenario = parse_scenario(kScenario, "held_box.yaml", run.dir);
+  ReplayOptions options;
+  options.out_dir = run.dir / "out";
+  run.result = replay(scenario, run.dir / "cut.csv", options);
+  return run;
+}
+
 }  // namespace
 
 TEST_CASE("report fields: a held box cut through on a plane, against a count by hand") {
-  const fs::path dir = folder_with_log("fields");
-  const Scenario scenario = parse_scenario(kScenario, "held_box.yaml", dir);
-  const fs::path log = dir / "cut.csv";
-  ReplayOptions options;
-  options.out_dir = dir / "out";
-  const ReplayResult r = replay(scenario, log, options);
+  const auto [dir, r] = replay_held_box("fields");
   REQUIRE(r.invariants_ok);
   REQUIRE(r.failure.empty());
   const auto& report = r.report;
@@ -187,11 +196,7 @@ TEST_CASE("report fields: a held box cut through on a plane, against a count by 
 }
 
 TEST_CASE("report fields: the held box's mesh, cut and contact figures, against a count by hand") {
-  const fs::path dir = folder_with_log("counts");
-  const Scenario scenario = parse_scenario(kScenario, "held_box.yaml", dir);
-  ReplayOptions options;
-  options.out_dir = dir / "out";
-  const ReplayResult r = replay(scenario, dir / "cut.csv", options);
+  const auto [dir, r] = replay_held_box("counts");
   REQUIRE(r.invariants_ok);
   const auto& report = r.report;
   const TetMesh box =
@@ -264,11 +269,7 @@ TEST_CASE("report fields: the held box's mesh, cut and contact figures, against 
 }
 
 TEST_CASE("report fields: the held box's through-cut scores full marks, its task figures by hand") {
-  const fs::path dir = folder_with_log("task");
-  const Scenario scenario = parse_scenario(kScenario, "held_box.yaml", dir);
-  ReplayOptions options;
-  options.out_dir = dir / "out";
-  const ReplayResult r = replay(scenario, dir / "cut.csv", options);
+  const auto [dir, r] = replay_held_box("task");
   REQUIRE(r.invariants_ok);
   const auto& task = r.report["task"];
 

@@ -51,14 +51,19 @@ const nlohmann::ordered_json& component(const nlohmann::ordered_json& task, cons
   return none;
 }
 
-}  // namespace
-
-TEST_CASE("surface probe: depth below the surface the blade's line leaves through, by hand on a box") {
+// A 1 x 1 cm layer 4 mm thick, its skin at z = 4 mm.
+TetMesh layer() {
   BoxSpec spec;
   spec.min = Vec3(0, 0, 0);
   spec.max = Vec3(0.01, 0.01, 0.004);
   spec.cells = {4, 4, 2};
-  const TetMesh box = make_box(spec);
+  return make_box(spec);
+}
+
+}  // namespace
+
+TEST_CASE("surface probe: depth below the surface the blade's line leaves through, by hand on a box") {
+  const TetMesh box = layer();
   const SurfaceProbe probe(box);
   // Upright blade, tip 1.5 mm below the top face.
   const Vec3 tip(0.0043, 0.0061, 0.0025);
@@ -90,11 +95,7 @@ TEST_CASE("surface probe: depth below the surface the blade's line leaves throug
 }
 
 TEST_CASE("surface probe: the deepest point of a blade through a thin layer, and its depth below the skin") {
-  BoxSpec spec;
-  spec.min = Vec3(0, 0, 0);
-  spec.max = Vec3(0.01, 0.01, 0.004);
-  spec.cells = {4, 4, 2};
-  const TetMesh box = make_box(spec);
+  const TetMesh box = layer();
   const SurfaceProbe probe(box);
   const Vec3 up(0, 0, 1);
   // Tip 0.5 mm above the bottom of the 4 mm layer: 3.5 mm below the skin it came through, not
