@@ -1,7 +1,7 @@
 // A set kept as a sorted vector, for scratch that is filled and cleared every step: clear() keeps
 // the storage, so once it has grown a step allocates nothing. Same order and uniqueness as
 // std::set with operator<; insertion is linear in the size, which suits the tens to hundreds of
-// keys one step touches.
+// keys one step touches. Unlike std::set, an insert or erase invalidates every iterator.
 #pragma once
 
 #include <algorithm>

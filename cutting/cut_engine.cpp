@@ -220,8 +220,9 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
 
 std::map<std::string, std::size_t> CutEngine::transitions_by_label() const {
   std::map<std::string, std::size_t> out;
-  for (const auto& [pair, count] : totals_.state_transitions) {
-    const MachineState from = MachineState::from_key(pair.first), to = MachineState::from_key(pair.second);
+  for (const auto& [states, count] : totals_.state_transitions) {
+    const MachineState from = MachineState::from_key(states.first),
+                       to = MachineState::from_key(states.second);
     out[table_.label(from.topology, from.complete) + "->" + table_.label(to.topology, to.complete)] += count;
   }
   return out;
@@ -426,6 +427,7 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
     ev.new_edges.push_back(k);
     ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
+  edges.clear();  // they point into this step's sweep result
 }
 
 void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {

@@ -267,7 +267,7 @@ class CutEngine {
       std::uint32_t order;  // in the sweep
     };
     std::vector<Pierce> pierced;
-    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings in sweep order
+    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings by u; empty between steps
     void clear();
   };
   // The stages of sweep_to(): the sweep and the continuation's passes, then each kind of event.

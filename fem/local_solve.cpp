@@ -62,8 +62,6 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
   st.local_nodes = local_.size();
 
   group_local_region();
-  const auto interiors = [&](auto&& f) { for_interior_groups(team, f); };  // I0 and I1 at once
-  const auto all = [&](auto&& f) { for_all_groups(team, f); };
   const auto diag = [&](const std::uint32_t i) -> const Mat3& { return rows_[i].blocks[rows_[i].diag]; };
   std::array<double, 3> sum_a{}, sum_b{};  // per group, added in group order
   const auto total = [](const std::array<double, 3>& v) { return v[0] + v[1] + v[2]; };
@@ -93,7 +91,7 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
     sum_a[h] = rl;
     sum_b[h] = rz;
   };
-  interiors(start);
+  for_interior_groups(team, start);
   start(groups_[2], 2);
   double rl = total(sum_a), rz = total(sum_b);
   const double stop = std::max(settings_.local_tolerance * std::sqrt(rl), target);
@@ -122,7 +120,7 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
   };
   while (std::sqrt(rl) > stop && it < max_iterations) {
     backward(groups_[2]);
-    interiors([&](const LocalGroup& g, std::size_t h) {
+    for_interior_groups(team, [&](const LocalGroup& g, std::size_t h) {
       backward(g);
       forward(g, h);
     });
@@ -130,7 +128,7 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
     const double pq = total(sum_a);
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
-    all([&](const LocalGroup& g, std::size_t h) {
+    for_all_groups(team, [&](const LocalGroup& g, std::size_t h) {
       double sum = 0;
       for (const std::uint32_t i : g.nodes) {
         dv_[i] += alpha * p_[i];
@@ -143,7 +141,7 @@ void TissueModel::solve_locally(std::size_t active_count, double target, StepSta
     const double rz_new = total(sum_b);
     ++it;
     if (ratio * rz_new <= stop * stop || it % 8 == 0) {
-      all(residuals);
+      for_all_groups(team, residuals);
       rl = total(sum_a);
       ratio = rz_new > 0 ? rl / rz_new : 0;
     }

@@ -76,6 +76,7 @@
 #include "fem/block_matrix.hpp"
 #include "fem/element.hpp"
 #include "fem/material.hpp"
+#include "fem/parallel.hpp"
 #include "fem/two_level.hpp"
 #include "mesh/mesh.hpp"
 

@@ -44,7 +44,7 @@ release-strict() {
 # (-fno-sanitize-recover), ASan stops at the first error and LeakSanitizer checks at exit.
 asan() {
   cmake --preset asan
-  cmake --build --preset asan --target scalpel_tests scalpelsim
+  cmake --build --preset asan --target scalpel_tests scalpel_alloc_tests scalpelsim
   ctest --preset asan -j "$(nproc)"
 }
 
@@ -63,7 +63,7 @@ tsan() {
 
 debug() {
   cmake --preset debug
-  cmake --build --preset debug --target scalpel_tests scalpelsim
+  cmake --build --preset debug --target scalpel_tests scalpel_alloc_tests scalpelsim
   ctest --preset debug -j "$(nproc)"
 }
 

@@ -270,7 +270,7 @@ void run_checked(const Scene& s, const std::vector<Sample>& samples, Kind kind, 
   const std::string unreached = unreached_transitions(table, cutter.totals().state_transitions);
   CHECK_MESSAGE(unreached.empty(), what << ": no sequence of the table's events makes\n" << unreached);
   ++stats.trajectories;
-  for (const auto& [pair, n] : cutter.totals().state_transitions) stats.transitions += n;
+  for (const auto& [states, n] : cutter.totals().state_transitions) stats.transitions += n;
   stats.edges_cut += cutter.totals().edges_cut;
   stats.backward += cutter.totals().backward_crossings;
   stats.recrossed += cutter.totals().recrossed_edges + cutter.totals().recrossed_faces;

@@ -193,6 +193,7 @@ TEST_CASE("report fields: a held box cut through on a plane, against a count by 
   CHECK(wound["surface_cut_nodes"] == 32);
   CHECK(wound["bridges"] == 0);
   CHECK(wound["profile"].size() == 32);
+  fs::remove_all(dir);
 }
 
 TEST_CASE("report fields: the held box's mesh, cut and contact figures, against a count by hand") {
