@@ -40,11 +40,11 @@ bool CutEngine::same_cut(const Vec3& old_point, const Vec3& old_normal, const Ve
 
 // The swept surface's normal at a face: its mid node's last sample, else one of its cut edges'.
 Vec3 CutEngine::face_sheet_normal(const Key3& k) const {
-  const std::uint32_t mid = face_node(mid_nodes_, k);
+  const std::uint32_t mid = cut_nodes_.mid(k);
   if (mid != kInvalidIndex && cut_nodes_[mid].sheet_normal.squaredNorm() > 0)
     return cut_nodes_[mid].sheet_normal;
   for (const auto& [a, b] : {std::pair{k[0], k[1]}, std::pair{k[1], k[2]}, std::pair{k[0], k[2]}}) {
-    const std::uint32_t e = edge_node(a, b);
+    const std::uint32_t e = cut_nodes_.edge(a, b);
     if (e != kInvalidIndex && cut_nodes_[e].sheet_normal.squaredNorm() > 0) return cut_nodes_[e].sheet_normal;
   }
   return Vec3::Zero();
@@ -61,7 +61,7 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   };
   // Whether a new cut at `point` in unit `c` extends the surface already cut there (the blade
   // returning to a cut it left, along it: the basic machine goes on) rather than starting another.
-  auto extends = [&](const CoarseTet& c, const Vec3& point, const Vec3& normal, double size) {
+  auto extends = [&](const CutUnit& c, const Vec3& point, const Vec3& normal, double size) {
     return c.any_cut_node([&](std::uint32_t id) {
       const CutNode& n = cut_nodes_[id];
       return n.kind != CutNode::Kind::Entry &&
@@ -86,8 +86,8 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   // A new cut on a face: a second surface there if the face is cut already, otherwise new only
   // to units whose subdivision is final.
   auto face_event = [&](const Key3& k, const Vec3& point, const Vec3& normal) {
-    if (sealed(k)) return;
-    const std::uint32_t mid = face_node(mid_nodes_, k);
+    if (seals_.sealed(k)) return;
+    const std::uint32_t mid = cut_nodes_.mid(k);
     if (mid == kInvalidIndex) {
       add_units(k, true, point, normal, face_size(k));
       return;
@@ -100,8 +100,8 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   for (const EdgeCut& e : sweep_result_.edges) {
     if (!e.forward) continue;  // backward crossings cut nothing (Eq. 1)
     const Key3 k = edge_key(e.a, e.b);
-    if (sealed(k) || along_former_cut(e, prev, pose)) continue;
-    const std::uint32_t id = edge_node(e.a, e.b);
+    if (seals_.sealed(k) || along_former_cut(e, prev, pose)) continue;
+    const std::uint32_t id = cut_nodes_.edge(e.a, e.b);
     if (id == kInvalidIndex) {
       add_units(k, true, e.point, swept_normal(prev, pose, e.s), (x[e.a] - x[e.b]).norm());
       continue;
@@ -114,7 +114,7 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   }
   for (const FacePierce& p : sweep_result_.pierces) {
     const Key3 k = sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]);
-    if (face_node(entry_nodes_, k) != kInvalidIndex) continue;  // the tip's own way back (§5.1)
+    if (cut_nodes_.entry(k) != kInvalidIndex) continue;  // the tip's own way back (§5.1)
     const Vec3 dir = (1.0 - p.u) * (prev.tip - prev.back) + p.u * blade;
     face_event(k, p.point, dir.cross(pose.tip - prev.tip));
   }
@@ -169,7 +169,7 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
   // unit of its component is promoted.
   auto at_boundary = [&](std::uint32_t t) {
     return cut_tets_.at(t).any_cut_node(
-        [&](std::uint32_t id) { return opens(id) && !cut_nodes_[id].opened; });
+        [&](std::uint32_t id) { return cut_nodes_.opens(id) && !cut_nodes_[id].opened; });
   };
   for (const auto& [seed, crosses] : units) {
     if (refused.count(seed) || !cut_tets_.count(seed) || (!crosses && at_boundary(seed))) continue;
@@ -203,7 +203,7 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
     for (const CrackFace& f : crack_faces(part))
       retired_crack_faces_.push_back(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
     for (const std::uint32_t t : part) {
-      const CoarseTet c = std::move(cut_tets_.at(t));
+      const CutUnit c = std::move(cut_tets_.at(t));
       cut_tets_.erase(t);
       const TetId unit = coarse_.tet_handle(t);
       const int region = coarse_.region(unit);
@@ -239,16 +239,10 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
       if (kept.count(id)) continue;
       CutNode& n = cut_nodes_[id];
       for (const NodeId c : n.copies) former_[c.index] = id;
-      auto& map = n.kind == CutNode::Kind::Edge  ? edge_nodes_
-                  : n.kind == CutNode::Kind::Mid ? mid_nodes_
-                                                 : entry_nodes_;
-      const auto it = map.find(n.key);
-      if (it != map.end() && it->second == id) map.erase(it);
-      if (n.kind == CutNode::Kind::Mid) crossing_faces_.erase(n.key);
-      n.crossing = false;
+      cut_nodes_.forget(id);
     }
     // Seals whose unit has been promoted now are lifted.
-    std::erase_if(seals_, [&](const auto& s) { return coarse_tets_around(s.second).empty(); });
+    seals_.lift_released();
     ++stats.recursions;
     if (!rest.empty()) ++stats.stroke_recursions;
     stats.promoted_tets += part.size();
@@ -262,7 +256,7 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
 // while `t`'s subdivision splits them: those holding cut data. Each of their pieces in `t`'s
 // subdivision is sealed with them.
 void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
-  const CoarseTet& c = cut_tets_.at(t);
+  const CutUnit& c = cut_tets_.at(t);
   const auto& v = coarse_.tet_vertex_indices(t);
   auto in = [](const Key3& outer, std::uint32_t slot) {
     return slot == kInvalidIndex || std::find(outer.begin(), outer.end(), slot) != outer.end();
@@ -279,37 +273,37 @@ void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
     return false;
   };
   auto seal_edges = [&](std::uint32_t a, std::uint32_t b, std::uint32_t d, const Key3& outer) {
-    add_seal(edge_key(a, b), outer);
-    add_seal(edge_key(b, d), outer);
-    add_seal(edge_key(a, d), outer);
+    seals_.add(edge_key(a, b), outer);
+    seals_.add(edge_key(b, d), outer);
+    seals_.add(edge_key(a, d), outer);
   };
   for (int f = 0; f < 4; ++f) {
     const auto fv = face_vertex_indices(coarse_, t, f);
     const Key3 face = sorted_key(fv[0], fv[1], fv[2]);
-    const bool cut = face_node(mid_nodes_, face) != kInvalidIndex ||
-                     face_node(entry_nodes_, face) != kInvalidIndex || face_has_edge_node(face);
+    const bool cut = cut_nodes_.mid(face) != kInvalidIndex || cut_nodes_.entry(face) != kInvalidIndex ||
+                     cut_nodes_.face_has_edge_node(face);
     if (!cut || !held_by_rest(face)) continue;
-    add_seal(face, face);
+    seals_.add(face, face);
     seal_edges(face[0], face[1], face[2], face);
     for (std::size_t s = 0; s < c.subs.size(); ++s)
       for (int j = 0; j < 4; ++j) {
         const auto g = face_without(c.subs[s], j);
         if (!lies_on(g[0], face) || !lies_on(g[1], face) || !lies_on(g[2], face)) continue;
         const auto r = face_without(c.real[s], j);
-        add_seal(sorted_key(r[0].index, r[1].index, r[2].index), face);
+        seals_.add(sorted_key(r[0].index, r[1].index, r[2].index), face);
         seal_edges(r[0].index, r[1].index, r[2].index, face);
       }
   }
   for (const auto& ev : kEdgeVertices) {
     const Key3 edge = edge_key(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]);
-    if (edge_node(edge[0], edge[1]) == kInvalidIndex || !held_by_rest(edge)) continue;
-    add_seal(edge, edge);
+    if (cut_nodes_.edge(edge[0], edge[1]) == kInvalidIndex || !held_by_rest(edge)) continue;
+    seals_.add(edge, edge);
     for (std::size_t s = 0; s < c.subs.size(); ++s)
       for (int i = 0; i < 4; ++i)
         for (int j = i + 1; j < 4; ++j)
           if (lies_on(c.subs[s][static_cast<size_t>(i)], edge) &&
               lies_on(c.subs[s][static_cast<size_t>(j)], edge))
-            add_seal(
+            seals_.add(
                 edge_key(c.real[s][static_cast<size_t>(i)].index, c.real[s][static_cast<size_t>(j)].index),
                 edge);
   }
@@ -337,21 +331,6 @@ bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const 
   const double along = options_.along_cut_angle_deg;
   return near_surface(x[e.a], ma, e.point, normal, size, along, distance) ||
          near_surface(x[e.b], mb, e.point, normal, size, along, distance);
-}
-
-void CutEngine::add_seal(const Key3& key, const Key3& outer) {
-  seals_.emplace(key, outer);
-}
-
-bool CutEngine::has_seal(const Key3& key) const {
-  const auto it = seals_.lower_bound({key, Key3{}});
-  return it != seals_.end() && it->first == key;
-}
-
-bool CutEngine::sealed(const Key3& key) const {
-  for (auto it = seals_.lower_bound({key, Key3{}}); it != seals_.end() && it->first == key; ++it)
-    if (!coarse_tets_around(it->second).empty()) return true;
-  return false;
 }
 
 }  // namespace scalpel

@@ -1,6 +1,8 @@
 // The cut engine (paper section 3): one step of the blade, from the sweep's events through the
 // cut nodes, the subdivision and the crack to the live mesh; point location for the tool. The
-// sections it calls live beside it: cut_nodes.cpp, subdivision.cpp, crack.cpp, continuation.cpp.
+// sections it calls live beside it, each owning its data: the cut-node store (CutNodes), the
+// Subdivision of a unit, the crack's VirtualNodes (and crack.cpp: the live elements and the cut
+// surface), the continuation (continuation.cpp) and its Seals.
 #include "cutting/cut_engine.hpp"
 
 #include <algorithm>
@@ -45,7 +47,11 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
       coarse_(mesh),
       options_(options),
       table_(options.table ? *options.table : default_cut_table()),
-      coarse_volume_(mesh.total_rest_volume()) {
+      coarse_volume_(mesh.total_rest_volume()),
+      cut_nodes_(mesh_, coarse_, changes_, options.min_face_bary),
+      subdivision_(coarse_, cut_nodes_, table_),
+      seals_(coarse_),
+      virtual_nodes_(mesh_, coarse_, cut_nodes_, seals_) {
   // The units grow when a cut is continued recursively (§6): room for an eighth more, so that the
   // first continuations of a session do not copy the whole unit mesh.
   coarse_.reserve(coarse_.node_capacity() + coarse_.node_capacity() / 8,
@@ -144,19 +150,19 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   regroup_ids.clear();
   for (const std::uint32_t t : affected) {
     auto [it, fresh] = cut_tets_.try_emplace(t);
-    CoarseTet& c = it->second;
+    CutUnit& c = it->second;
     if (fresh) {
       const TetId live = mesh_.tet_handle(unit_live_[t]);
       c.live = {live};
       c.real = {mesh_.tet_nodes(live)};
       ++totals_.coarse_tets_cut;
     }
-    c.topology = compute_topology(t);
+    c.topology = subdivision_.topology(t);
     c.state = canonicalize(c.topology);
-    subdivide(t, c.subs);
+    subdivision_.subdivide(t, c.state, c.subs);
     for (const auto& s : c.subs)
       for (const GNode g : s)
-        if ((g & kCutBit) && opens(static_cast<std::uint32_t>(g & ~kCutBit)))
+        if ((g & kCutBit) && cut_nodes_.opens(static_cast<std::uint32_t>(g & ~kCutBit)))
           regroup_ids.insert(static_cast<std::uint32_t>(g & ~kCutBit));
   }
   // Completion (§4.3, "leave"): a cut tetrahedron none of whose faces the blade crosses any more is
@@ -166,11 +172,11 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   for (const auto& [t, from] : before) {
     const auto it = cut_tets_.find(t);
     if (it == cut_tets_.end()) continue;
-    CoarseTet& c = it->second;
+    CutUnit& c = it->second;
     bool crossed = false;
     for (int f = 0; f < 4 && !crossed; ++f) {
       const auto fv = face_vertex_indices(coarse_, t, f);
-      const std::uint32_t id = face_node(mid_nodes_, sorted_key(fv[0], fv[1], fv[2]));
+      const std::uint32_t id = cut_nodes_.mid(sorted_key(fv[0], fv[1], fv[2]));
       crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
     }
     if (affected.contains(t))
@@ -189,7 +195,7 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   rebuild.insert(affected.begin(), affected.end());
   auto& regrouped = scratch.regrouped;
   regrouped.clear();
-  for (const std::uint32_t id : regroup_ids) regroup(id, regrouped);
+  for (const std::uint32_t id : regroup_ids) virtual_nodes_.regroup(id, cut_tets_, regrouped);
   rebuild.insert(regrouped.begin(), regrouped.end());
   for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
   // A copy no group took (groups that merged again once a crack face between them went, e.g. a
@@ -215,7 +221,7 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
     n.copies.resize(kept);
     for (auto& e : n.group_of) e.group = index[e.group];
   }
-  return remove_nodes(unused);
+  return cut_nodes_.remove_nodes(unused);
 }
 
 std::map<std::string, std::size_t> CutEngine::transitions_by_label() const {
@@ -315,7 +321,7 @@ CutStepStats CutEngine::sweep_to(const BladePose& pose, bool tool_moved) {
 
   stats.sealed_events = ev.sealed_now.size();
   std::size_t removed = commit(ev.affected, ev.left_faces_tets, stats);
-  removed += remove_undone_nodes();
+  removed += cut_nodes_.remove_undone();
   stats.nodes_created = mesh_.node_count() + removed - nodes_before;
   totals_.add(stats);
 
@@ -371,7 +377,7 @@ void CutEngine::StepEvents::clear() {
 }
 
 bool CutEngine::skip_sealed(const Key3& k, StepEvents& ev) const {
-  if (!sealed(k)) return false;
+  if (!seals_.sealed(k)) return false;
   ev.sealed_now.insert(k);
   return true;
 }
@@ -398,9 +404,9 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
     }
     double t = std::clamp(e->t, options_.min_edge_param, 1.0 - options_.min_edge_param);
     if (e->a > e->b) t = 1.0 - t;  // weights follow the ascending key
-    const auto known = edge_nodes_.find(k);
-    if (known != edge_nodes_.end()) {
-      CutNode& n = cut_nodes_[known->second];
+    const std::uint32_t known = cut_nodes_.edge(k[0], k[1]);
+    if (known != kInvalidIndex) {
+      CutNode& n = cut_nodes_[known];
       if (!e->forward) {
         ++stats.backward_crossings;
       } else if (n.registered && !n.pinned) {
@@ -408,7 +414,7 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
         // and makes it a cut; the subdivision stays.
         n.registered = false;
         n.bary = Vec3(1.0 - t, t, 0.0);
-        place_cut_node(known->second);
+        cut_nodes_.place(known);
         for_coarse_tets_around(k, [&](std::uint32_t c) { ev.affected.insert(c); });
         ++stats.replaced_crossings;
         ++stats.edges_cut;
@@ -419,11 +425,10 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
     }
     // A new crossing. A backward one (Eq. 1: the blunt side leads) is registered on the edge: the
     // edge node exists and subdivides, but it never opens until a forward crossing cuts it.
-    const std::uint32_t id = create_cut_node(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0));
+    const std::uint32_t id = cut_nodes_.add(CutNode::Kind::Edge, k, Vec3(1.0 - t, t, 0.0), stroke_);
     // Normal of the swept surface at the crossing: blade direction x blade motion there.
     cut_nodes_[id].sheet_normal = swept_normal(prev, pose, e->s);
     cut_nodes_[id].registered = !e->forward;
-    edge_nodes_.emplace(k, id);
     ev.new_edges.push_back(k);
     ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
@@ -449,14 +454,14 @@ void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {
     for (; i < pierced.size() && pierced[i].face == k; ++i)
       if (pierced[i].entering) into = pierced[i].tet;
     if (skip_sealed(k, ev)) continue;
-    const auto known = entry_nodes_.find(k);
-    if (known != entry_nodes_.end()) {
+    const std::uint32_t known = cut_nodes_.entry(k);
+    if (known != kInvalidIndex) {
       // Back the way it came: the tip leaves by the face it entered. The same way again is the face
       // moving with the tissue past a tip that already went through it: nothing happens.
-      if (cut_nodes_[known->second].into != into) ev.tip_left.insert(k);
+      if (cut_nodes_[known].into != into) ev.tip_left.insert(k);
       continue;
     }
-    const std::uint32_t mid = face_node(mid_nodes_, k);
+    const std::uint32_t mid = cut_nodes_.mid(k);
     if (mid != kInvalidIndex && cut_nodes_[mid].opened) {
       ++stats.recrossed_faces;  // the face is cut through already: the recursive case (§6)
       continue;
@@ -469,9 +474,8 @@ void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {
       continue;
     }
     const Vec3 w = clamp_interior(face_bary(k, point), options_.min_face_bary);
-    const std::uint32_t id = create_cut_node(CutNode::Kind::Entry, k, w);
+    const std::uint32_t id = cut_nodes_.add(CutNode::Kind::Entry, k, w, stroke_);
     cut_nodes_[id].into = into;
-    entry_nodes_.emplace(k, id);
     ev.changed_faces.insert(k);
     ev.positioned_faces.insert(k);
     ++stats.face_pierces;
@@ -487,10 +491,9 @@ void CutEngine::crossing_events(const BladePose& prev, const BladePose& pose, St
     if (!ev.crossing_now.insert(k)) continue;
     const Vec3 sample = face_bary(k, c.point);
     const Vec3 w = clamp_interior(sample, options_.min_face_bary);
-    std::uint32_t id = face_node(mid_nodes_, k);
+    std::uint32_t id = cut_nodes_.mid(k);
     if (id == kInvalidIndex) {
-      id = create_cut_node(CutNode::Kind::Mid, k, w);
-      mid_nodes_.emplace(k, id);
+      id = cut_nodes_.add(CutNode::Kind::Mid, k, w, stroke_);
       ev.changed_faces.insert(k);
     }
     CutNode& n = cut_nodes_[id];
@@ -507,15 +510,12 @@ void CutEngine::crossing_events(const BladePose& prev, const BladePose& pose, St
     ++n.samples;
     ev.positioned_faces.insert(k);
   }
-  for (const Key3& k : crossing_faces_) {
+  for (const Key3& k : cut_nodes_.crossing_faces()) {
     if (ev.crossing_now.contains(k)) continue;
-    cut_nodes_[mid_nodes_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
     ev.positioned_faces.insert(k);
     for_coarse_tets_around(k, [&](std::uint32_t t) { ev.left_faces_tets.insert(t); });
   }
-  crossing_faces_.clear();
-  for (const Key3& k : ev.crossing_now)
-    if (cut_nodes_[mid_nodes_.at(k)].crossing) crossing_faces_.insert(k);
+  cut_nodes_.update_crossings(ev.crossing_now);  // the others settle at their averaged trajectory (§5.2)
 }
 
 void CutEngine::tremble_at_faces(StepEvents& ev, CutStepStats& stats) {
@@ -523,12 +523,12 @@ void CutEngine::tremble_at_faces(StepEvents& ev, CutStepStats& stats) {
   // that leaves by the face it entered before any edge of that face is cut undoes the face's
   // subdivision.
   for (const Key3& k : ev.tip_left) {
-    const std::uint32_t mid = face_node(mid_nodes_, k);
-    if (face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].opened)) {
+    const std::uint32_t mid = cut_nodes_.mid(k);
+    if (cut_nodes_.face_has_edge_node(k) || (mid != kInvalidIndex && cut_nodes_[mid].opened)) {
       ++stats.recrossed_faces;  // the tip crosses a cut face again: the recursive case (§6)
       continue;
     }
-    undo_face(k, !crossing_faces_.contains(k));
+    cut_nodes_.undo_face(k, !cut_nodes_.crossing_faces().contains(k));
     ev.changed_faces.insert(k);
     ++stats.undone_faces;
   }
@@ -540,8 +540,8 @@ void CutEngine::place_face_nodes(StepEvents& ev) {
     for_coarse_tets_around(k, [&](std::uint32_t t) { ev.affected.insert(t); });
     for (const Key3& fk : faces_around_edge(k)) {
       ev.positioned_faces.insert(fk);
-      if (face_node(mid_nodes_, fk) == kInvalidIndex) {
-        mid_nodes_.emplace(fk, create_cut_node(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0)));
+      if (cut_nodes_.mid(fk) == kInvalidIndex) {
+        (void)cut_nodes_.add(CutNode::Kind::Mid, fk, Vec3::Constant(1.0 / 3.0), stroke_);
         ev.changed_faces.insert(fk);
       }
     }
@@ -549,10 +549,10 @@ void CutEngine::place_face_nodes(StepEvents& ev) {
 
   // Place mid nodes; a mid node that moves to another part of an entry-split face changes topology.
   for (const Key3& k : ev.positioned_faces) {
-    const std::uint32_t id = face_node(mid_nodes_, k);
+    const std::uint32_t id = cut_nodes_.mid(k);
     if (id == kInvalidIndex) continue;
     const int before = cut_nodes_[id].entry_subtriangle;
-    update_face_position(id);
+    cut_nodes_.update_face_position(id);
     if (cut_nodes_[id].entry_subtriangle != before) ev.changed_faces.insert(k);
   }
   for (const Key3& k : ev.changed_faces)
@@ -565,43 +565,43 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   const std::size_t nodes_before = mesh_.node_count();
   const auto& v = coarse_.tet_vertex_indices(t);
   std::set<Key3> faces;
-  auto make = [&](std::map<Key3, std::uint32_t>& map, CutNode::Kind kind, const Key3& k, const Vec3& w) {
-    const auto [it, fresh] = map.try_emplace(k, 0u);
-    if (fresh) it->second = create_cut_node(kind, k, w);
-    return it->second;
+  auto make = [&](CutNode::Kind kind, const Key3& k, const Vec3& w) {
+    const std::uint32_t known = kind == CutNode::Kind::Edge  ? cut_nodes_.edge(k[0], k[1])
+                                : kind == CutNode::Kind::Mid ? cut_nodes_.mid(k)
+                                                             : cut_nodes_.entry(k);
+    return known != kInvalidIndex ? known : cut_nodes_.add(kind, k, w, stroke_);
   };
   for (int e = 0; e < 6; ++e) {
     if (!(local.edges & (1u << e))) continue;
     const auto& ev = kEdgeVertices[static_cast<size_t>(e)];
     const double param = 0.3 + 0.07 * e;
     const Key3 k = edge_key(v[static_cast<size_t>(ev[0])], v[static_cast<size_t>(ev[1])]);
-    make(edge_nodes_, CutNode::Kind::Edge, k, Vec3(1 - param, param, 0));
+    make(CutNode::Kind::Edge, k, Vec3(1 - param, param, 0));
     for (const Key3& fk : faces_around_edge(k)) faces.insert(fk);
   }
   for (int f = 0; f < 4; ++f) {
     const auto fv = face_vertex_indices(coarse_, t, f);
     const Key3 k = sorted_key(fv[0], fv[1], fv[2]);
     if (local.entries & (1u << f)) {
-      make(entry_nodes_, CutNode::Kind::Entry, k, Vec3(0.2, 0.35, 0.45));
+      make(CutNode::Kind::Entry, k, Vec3(0.2, 0.35, 0.45));
       ++stats.face_pierces;
     }
     if (local.faces & (1u << f)) faces.insert(k);
   }
   FlatSet<std::uint32_t> affected;
   for (const Key3& k : faces) {
-    const std::uint32_t id = make(mid_nodes_, CutNode::Kind::Mid, k, Vec3(0.45, 0.3, 0.25));
+    const std::uint32_t id = make(CutNode::Kind::Mid, k, Vec3(0.45, 0.3, 0.25));
     CutNode& n = cut_nodes_[id];
     if (n.samples == 0) {
       n.sample_sum = n.bary;
       n.samples = 1;
     }
-    n.crossing = !complete;
-    if (n.crossing) crossing_faces_.insert(k);
-    update_face_position(id);
+    cut_nodes_.set_crossing(id, !complete);
+    cut_nodes_.update_face_position(id);
   }
   for (const Key3& k : faces)
     for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
-  for (const auto& [k, id] : entry_nodes_)
+  for (const auto& [k, id] : cut_nodes_.entries())
     for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
   affected.insert(t);
   const std::size_t removed = commit(affected, FlatSet<std::uint32_t>{}, stats);

@@ -52,8 +52,13 @@
 
 #include "base/flat_set.hpp"
 #include "cutting/blade_sweep.hpp"
+#include "cutting/cut_changes.hpp"
+#include "cutting/cut_nodes.hpp"
 #include "cutting/cut_state.hpp"
 #include "cutting/cut_table.hpp"
+#include "cutting/seals.hpp"
+#include "cutting/subdivision.hpp"
+#include "cutting/virtual_nodes.hpp"
 #include "mesh/mesh.hpp"
 
 namespace scalpel {
@@ -94,24 +99,6 @@ struct CutOptions {
   std::uint64_t finished_after_steps = 250;
   // The state machine's table; null: the bundled config/cutting/state_machine.cut.
   const CutTable* table = nullptr;
-};
-
-// The topology changes of the last step, for the tissue model (docs/tissue.md).
-struct CutChanges {
-  std::vector<std::uint32_t> removed_tets;  // live tet slots removed (before the new ones were added)
-  std::vector<TetId> added_tets;
-  std::vector<NodeId> added_nodes;
-  std::vector<NodeParents> added_node_parents;  // weights over existing nodes, one per added node
-  std::vector<NodeId> moved_nodes;              // rest and current position changed (sliding mid nodes)
-  std::vector<std::uint32_t> touched_nodes;     // node slots of removed, added and moved elements
-  void clear() {
-    touched_nodes.clear();
-    removed_tets.clear();
-    added_tets.clear();
-    added_nodes.clear();
-    added_node_parents.clear();
-    moved_nodes.clear();
-  }
 };
 
 // A point in the tissue, on the tetrahedron of the original mesh it lies in: that tetrahedron's
@@ -204,7 +191,7 @@ class CutEngine {
   [[nodiscard]] const CutChanges& changes() const { return changes_; }
   // Rest positions of the points the cut has reached: edge cut points and entry nodes (the tip's
   // path), in the order they were made (for task scoring).
-  [[nodiscard]] std::vector<Vec3> cut_points() const;
+  [[nodiscard]] std::vector<Vec3> cut_points() const { return cut_nodes_.cut_points(); }
   // Where point p is in the tissue, current configuration: none outside it or in an opened crack
   // wider than 2 `margin` [m] (a blade on its own cut lies on the crack faces, which may have
   // parted by a fraction of its thickness). Weights are on the corners of the original tetrahedron
@@ -228,22 +215,11 @@ class CutEngine {
   // on its parent coarse edge or face at non-negative weights summing to one (edge nodes strictly
   // inside their edge, face nodes inside their face). Returns one line per violation, empty if
   // none; `tolerance` [m] on the distance from the weighted parent point.
-  [[nodiscard]] std::string check_faithful(double tolerance) const;
+  [[nodiscard]] std::string check_faithful(double tolerance) const {
+    return cut_nodes_.check_faithful(tolerance);
+  }
 
  private:
-  enum class CutNodeKind : std::uint8_t { Edge, Mid, Entry };
-  // Which copy of a cut node sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses.
-  struct CutNodeGroup {
-    std::uint32_t coarse, sub, group;  // group: the index into the cut node's copies
-    friend bool operator<(const CutNodeGroup& a, const CutNodeGroup& b) {
-      return a.coarse != b.coarse ? a.coarse < b.coarse : a.sub < b.sub;
-    }
-  };
-  struct CutNode;
-  struct CoarseTet;
-  using GNode = std::uint64_t;  // corner: node slot; cut node: kCutBit | cut node index
-  static constexpr GNode kCutBit = GNode{1} << 63;
-
   // Sweeps the blade from its last pose to `pose` and applies every event; `tool_moved`: a tool
   // sample (false: the tissue moved under the blade).
   CutStepStats sweep_to(const BladePose& pose, bool tool_moved);
@@ -285,30 +261,6 @@ class CutEngine {
   // true; returns whether it did.
   template <class F>
   bool for_units_at(const Vec3& p, F&& f) const;
-  std::uint32_t edge_node(std::uint32_t a, std::uint32_t b) const;
-  std::uint32_t face_node(const std::map<std::array<std::uint32_t, 3>, std::uint32_t>& map,
-                          const std::array<std::uint32_t, 3>& key) const;
-  void place_cut_node(std::uint32_t id);
-  NodeId add_node(const NodeParents& parents);
-  std::uint32_t create_cut_node(CutNodeKind kind, const std::array<std::uint32_t, 3>& key, const Vec3& bary);
-  // Takes the face's entry node (and its mid node, with `mid`) out of the cut data; their real nodes
-  // are removed once the step has rebuilt the elements around the face (§5.1).
-  void undo_face(const std::array<std::uint32_t, 3>& key, bool mid);
-  bool face_has_edge_node(const std::array<std::uint32_t, 3>& key) const;
-  std::size_t remove_undone_nodes();
-  std::size_t remove_nodes(const std::vector<NodeId>& dead);
-  void update_face_position(std::uint32_t id);
-  [[nodiscard]] std::optional<Vec3> current_position_of(NodeId c, const Vec3& rest) const;
-  CutTopology compute_topology(std::uint32_t coarse_slot) const;
-  void subdivide(std::uint32_t coarse_slot, std::vector<std::array<GNode, 4>>& out) const;
-  // Regroups the sub-tetrahedra around a cut node; appends the coarse tetrahedra whose
-  // sub-tetrahedra changed group to `changed`.
-  void regroup(std::uint32_t cut_id, std::vector<std::uint32_t>& changed);
-  // regroup()'s stages, over scratch_: the groups of sub-tetrahedra around the node (returns how
-  // many), the old copies each group's corners vote for, and the copy each group takes.
-  std::uint32_t group_around(std::uint32_t cut_id);
-  void vote_copies(std::uint32_t cut_id);
-  void choose_copies(std::uint32_t cut_id, std::uint32_t groups);
   void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
   // Returns how many real nodes it removed (copies no element uses any more).
   std::size_t commit(const FlatSet<std::uint32_t>& affected, const FlatSet<std::uint32_t>& left_faces_tets,
@@ -319,14 +271,12 @@ class CutEngine {
   void for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const;
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   void coarse_tets_around(const std::array<std::uint32_t, 3>& key, std::vector<std::uint32_t>& out) const;
-  bool is_crack_face(GNode a, GNode b, GNode c) const;
   // Crack faces of the subdivisions of `units`, each once (face `face` of sub-tetrahedron `sub`).
   struct CrackFace {
     std::uint32_t unit, sub;
     int face;
   };
   std::vector<CrackFace> crack_faces(const std::vector<std::uint32_t>& units) const;
-  bool opens(std::uint32_t cut_id) const;
   // Whether a unit holding `face` is in an end state whose crack has opened wherever it can (§4.4).
   bool into_final(const std::array<std::uint32_t, 3>& face) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
@@ -344,10 +294,7 @@ class CutEngine {
                CutStepStats& stats);
   // The unit node mirroring live node `live` (same slot), created on first use.
   NodeId unit_node(NodeId live);
-  // Whether a face or edge (key {a, b, kInvalidIndex}) is sealed: it lies on the boundary between
-  // units promoted within a stroke and the units of the stroke's recent part, which still hold it
-  // whole. Crossings there are ignored until those units are promoted too.
-  bool sealed(const std::array<std::uint32_t, 3>& key) const;
+  // Seals the faces and edges of `unit`, about to be promoted, that a unit of `rest` holds whole.
   void seal(std::uint32_t unit, const std::vector<std::uint32_t>& rest);
   // Whether an edge crossing runs along an opened cut surface that holds both of the edge's ends,
   // promoted cut nodes of one surface (by same_cut()): a blade retracing a cut continued one level
@@ -373,13 +320,11 @@ class CutEngine {
   BladePose blade_{};
   bool placed_ = false;
 
-  std::vector<CutNode> cut_nodes_;
-  std::map<std::array<std::uint32_t, 3>, std::uint32_t> edge_nodes_;   // key {a, b, kInvalidIndex}, a < b
-  std::map<std::array<std::uint32_t, 3>, std::uint32_t> mid_nodes_;    // key: sorted face slots
-  std::map<std::array<std::uint32_t, 3>, std::uint32_t> entry_nodes_;  // key: sorted face slots
-  std::unordered_map<std::uint32_t, CoarseTet> cut_tets_;              // by coarse slot
-  FlatSet<std::array<std::uint32_t, 3>> crossing_faces_;               // faces the blade crosses now
-  std::vector<std::uint32_t> live_to_coarse_;                          // by live tet slot
+  CutChanges changes_;
+  CutNodes cut_nodes_;       // the cut's edge, mid and entry nodes (§4.1, §5, §5.2)
+  Subdivision subdivision_;  // of a unit from its cut nodes (§4.2, §4.4)
+  std::unordered_map<std::uint32_t, CutUnit> cut_tets_;  // by coarse slot
+  std::vector<std::uint32_t> live_to_coarse_;            // by live tet slot
   // By unit slot: the live tetrahedron of a unit not cut yet, and the unit's recursion level. Unit
   // node slots mirror live node slots (a promoted sub-tetrahedron keeps its live nodes).
   std::vector<std::uint32_t> unit_live_;
@@ -392,36 +337,10 @@ class CutEngine {
   std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction
   // Crack faces of promoted components (one side's real nodes), for the cut-surface area.
   std::vector<std::array<NodeId, 3>> retired_crack_faces_;
-  std::vector<std::uint32_t> undone_;  // cut nodes taken out this step, their copies to be removed
-  // Sealed faces and edges (sorted node slots; an edge has kInvalidIndex third), each with the
-  // face or edge of a not yet promoted unit whose subdivision holds it: the seal lasts while a unit
-  // holds that face or edge whole. One key can be sealed by several (an edge of two sealed faces);
-  // it stays sealed while any of them holds.
-  std::set<std::pair<std::array<std::uint32_t, 3>, std::array<std::uint32_t, 3>>> seals_;
-  void add_seal(const std::array<std::uint32_t, 3>& key, const std::array<std::uint32_t, 3>& outer);
-  bool has_seal(const std::array<std::uint32_t, 3>& key) const;
+  Seals seals_;                 // between the promoted and the still cut part of a stroke (§6)
+  VirtualNodes virtual_nodes_;  // the copies of cut nodes on either side of the crack (§4.1)
   // Promoted cut nodes, now corners of units, by node slot of each copy: the cut node.
   std::unordered_map<std::uint32_t, std::uint32_t> former_;
-  CutChanges changes_;
-  // Scratch buffers of regroup(), kept to avoid allocating on every step.
-  struct RegroupItem {
-    std::uint32_t coarse, sub;
-    const std::array<GNode, 4>* tet;
-  };
-  struct {
-    std::vector<RegroupItem> items;
-    std::vector<std::uint32_t> parent, group_of_root;
-    std::vector<std::pair<std::array<GNode, 3>, std::uint32_t>> faces;
-    std::vector<GNode> smallest;
-    std::vector<std::pair<GNode, std::uint32_t>> order;
-    std::vector<CutNodeGroup> group_of;
-    std::vector<std::array<std::uint32_t, 3>> votes;  // (group, copy, count)
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> shared;
-    std::vector<std::uint32_t> copy_of;
-    std::vector<std::uint8_t> taken;
-    std::vector<std::uint32_t> item_group;  // the group of each item
-    std::vector<std::uint32_t> around;      // the coarse tetrahedra around the node
-  } scratch_;
   // Scratch of rebuild_live().
   struct {
     std::vector<std::array<NodeId, 4>> real;

@@ -1,6 +1,7 @@
 // The cut engine's internal types and helpers, shared by the files that implement its paper sections
 // (cut_engine.cpp: the step, section 3; cut_nodes.cpp; subdivision.cpp; crack.cpp;
-// continuation.cpp; docs/README.md). Not part of the library's interface.
+// continuation.cpp; seals.cpp; virtual_nodes.cpp; docs/README.md). Not part of the library's
+// interface.
 #pragma once
 
 #include <algorithm>
@@ -13,50 +14,6 @@
 #include "cutting/cut_engine.hpp"
 
 namespace scalpel {
-
-struct CutEngine::CutNode {
-  using Kind = CutNodeKind;
-  Kind kind = Kind::Edge;
-  std::array<std::uint32_t, 3> key{};  // sorted coarse node slots; an edge has key[2] = kInvalidIndex
-  Vec3 bary = Vec3::Zero();            // weights of the key nodes
-  Vec3 placed_bary = Vec3::Zero();     // the weights its copies were last placed at
-  std::uint32_t into = kInvalidIndex;  // entry node: the coarse tetrahedron the tip went into
-  Vec3 sample_sum = Vec3::Zero();      // mid node: sum of sampled ENP barycentrics (§5.2)
-  int samples = 0;
-  bool crossing = false;             // mid node: the blade crosses the face now
-  bool registered = false;           // edge node crossed only backward so far (§5, Eq. 1)
-  int entry_subtriangle = -1;        // mid node on a face with an entry node: which part holds it
-  Vec3 sheet_normal = Vec3::Zero();  // normal of the swept surface where it was cut (last sample)
-  std::uint64_t stroke = 0;          // the stroke that cut it (last sample)
-  // Shared with units promoted within a stroke (§6): it stays where it is and gains no copy.
-  bool pinned = false;
-  std::vector<NodeId> copies;  // real nodes, one per group (group_of says which)
-  // It has had two copies: the cut has gone through here, even where its groups joined again
-  // and the copy no element used has gone.
-  bool opened = false;
-  using GroupEntry = CutNodeGroup;
-  std::vector<GroupEntry> group_of;  // sorted by (coarse, sub)
-  // The copy sub-tetrahedron `sub` of coarse tetrahedron `coarse` uses (0 if not grouped).
-  [[nodiscard]] std::uint32_t group(std::uint32_t coarse, std::uint32_t sub) const;
-};
-
-struct CutEngine::CoarseTet {
-  std::vector<std::array<GNode, 4>> subs;   // the subdivision in abstract nodes
-  std::vector<std::array<NodeId, 4>> real;  // the real nodes of each live sub-tetrahedron
-  std::vector<TetId> live;
-  CutTopology topology;  // in local labels
-  CanonicalState state;  // the state (§4.2): canonical topology and absolute transformation
-  bool complete = false;
-  // Calls f(cut node index) for each cut-node corner of the sub-tetrahedra (a node once per
-  // corner) until f returns true; returns whether it did.
-  template <class F>
-  bool any_cut_node(F&& f) const {
-    for (const auto& sub : subs)
-      for (const GNode g : sub)
-        if ((g & kCutBit) && f(static_cast<std::uint32_t>(g & ~kCutBit))) return true;
-    return false;
-  }
-};
 
 namespace cut_internal {
 
@@ -185,17 +142,24 @@ inline std::optional<std::array<double, 4>> volume_weights(const Vec3& p, const 
       signed_volume(x[0], x[1], p, x[3]) / whole, signed_volume(x[0], x[1], x[2], p) / whole};
 }
 
-}  // namespace cut_internal
-
+// The tetrahedra of `m` holding a face or an edge (key {a, b, kInvalidIndex}): f(slot) for each,
+// in no particular order.
 template <class F>
-void CutEngine::for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const {
-  for (const std::uint32_t t : coarse_.node_tets(coarse_.node_handle(key[0]))) {
-    const auto& v = coarse_.tet_vertex_indices(t);
+void for_tets_around(const TetMesh& m, const Key3& key, F&& f) {
+  for (const std::uint32_t t : m.node_tets(m.node_handle(key[0]))) {
+    const auto& v = m.tet_vertex_indices(t);
     bool all = true;
     for (std::size_t i = 1; i < 3; ++i)
       if (key[i] != kInvalidIndex) all &= std::find(v.begin(), v.end(), key[i]) != v.end();
     if (all) f(t);
   }
+}
+
+}  // namespace cut_internal
+
+template <class F>
+void CutEngine::for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const {
+  cut_internal::for_tets_around(coarse_, key, f);
 }
 
 }  // namespace scalpel

@@ -1,30 +1,42 @@
-// Cut nodes (paper sections 4.1, 5 and 5.2): the edge, mid and entry nodes of the cut, where they
-// sit, how mid nodes slide with the blade and settle at the average of their samples, and how
-// tremble takes them out again (section 5.1).
+// The cut nodes (paper sections 4.1, 5 and 5.2): where they sit, how mid nodes slide with the
+// blade and settle at the average of their samples, and how tremble takes them out again (5.1).
+#include "cutting/cut_nodes.hpp"
+
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <numbers>
-#include <numeric>
-#include <set>
 #include <stdexcept>
 
 #include "cutting/cut_engine_internal.hpp"
-#include "mesh/closest_point.hpp"
-#include "mesh/validate.hpp"
 
 namespace scalpel {
 
 using namespace cut_internal;
 
-std::uint32_t CutEngine::edge_node(std::uint32_t a, std::uint32_t b) const {
-  const auto it = edge_nodes_.find(edge_key(a, b));
-  return it == edge_nodes_.end() ? kInvalidIndex : it->second;
+CutNodes::CutNodes(TetMesh& mesh, const TetMesh& coarse, CutChanges& changes, double min_face_bary)
+    : mesh_(mesh), coarse_(coarse), changes_(changes), min_face_bary_(min_face_bary) {}
+
+std::uint32_t CutNode::group(std::uint32_t coarse, std::uint32_t sub) const {
+  const auto it = std::lower_bound(group_of.begin(), group_of.end(), GroupEntry{coarse, sub, 0});
+  return it != group_of.end() && it->coarse == coarse && it->sub == sub ? it->group : 0;
 }
 
-std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, const Key3& key) const {
-  const auto it = map.find(key);
-  return it == map.end() ? kInvalidIndex : it->second;
+std::uint32_t CutNodes::edge(std::uint32_t a, std::uint32_t b) const {
+  const auto it = edges_.find(edge_key(a, b));
+  return it == edges_.end() ? kInvalidIndex : it->second;
+}
+
+std::uint32_t CutNodes::mid(const Key& face) const {
+  const auto it = mids_.find(face);
+  return it == mids_.end() ? kInvalidIndex : it->second;
+}
+
+std::uint32_t CutNodes::entry(const Key& face) const {
+  const auto it = entries_.find(face);
+  return it == entries_.end() ? kInvalidIndex : it->second;
+}
+
+std::map<CutNodes::Key, std::uint32_t>& CutNodes::map_of(CutNodeKind kind) {
+  return kind == CutNodeKind::Edge ? edges_ : kind == CutNodeKind::Mid ? mids_ : entries_;
 }
 
 // Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the
@@ -35,8 +47,8 @@ std::uint32_t CutEngine::face_node(const std::map<Key3, std::uint32_t>& map, con
 // field the elements interpolate as it was, up to re-interpolation. The coarse face's corners are no
 // measure of that map once a crack or a strained element lies between them; they move only a copy
 // no element holds yet.
-void CutEngine::place_cut_node(std::uint32_t id) {
-  CutNode& n = cut_nodes_[id];
+void CutNodes::place(std::uint32_t id) {
+  CutNode& n = nodes_[id];
   const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
   Vec3 r = Vec3::Zero(), dx_face = Vec3::Zero();
   for (int i = 0; i < count; ++i) {
@@ -57,7 +69,7 @@ void CutEngine::place_cut_node(std::uint32_t id) {
 // Where the live elements around real node c put rest point `rest` now: the element of c's star
 // that holds it in the rest configuration (the one it is deepest in), interpolated at its current
 // corners. None if c has no element of positive rest volume, or the point lies far outside them all.
-std::optional<Vec3> CutEngine::current_position_of(NodeId c, const Vec3& rest) const {
+std::optional<Vec3> CutNodes::current_position_of(NodeId c, const Vec3& rest) const {
   const auto& rp = mesh_.rest_positions();
   const auto& xp = mesh_.positions();
   double deepest = -0.5;  // further outside than that: the star is no measure
@@ -79,10 +91,10 @@ std::optional<Vec3> CutEngine::current_position_of(NodeId c, const Vec3& rest) c
 // Where a mid node stands (§4.1, §5.2): on the blade while the blade crosses the face; afterwards
 // at the average of its sampled positions; a face the swept surface crossed between two samples
 // has none, and takes the middle of its trace (the average of the trace's end points on the face).
-void CutEngine::update_face_position(std::uint32_t id) {
-  CutNode& n = cut_nodes_[id];
+void CutNodes::update_face_position(std::uint32_t id) {
+  CutNode& n = nodes_[id];
   if (n.opened || n.pinned) return;  // the crack has opened here, or promoted units hold it
-  const Key3& k = n.key;
+  const Key& k = n.key;
   const Vec3 pa = coarse_.positions()[k[0]], pb = coarse_.positions()[k[1]], pc = coarse_.positions()[k[2]];
   Vec3 w;
   if (n.crossing) {
@@ -95,16 +107,16 @@ void CutEngine::update_face_position(std::uint32_t id) {
     const std::array<std::array<int, 2>, 3> edges{{{0, 1}, {1, 2}, {0, 2}}};
     std::uint32_t single_edge = kInvalidIndex;
     for (const auto& e : edges) {
-      const std::uint32_t en = edge_node(k[static_cast<size_t>(e[0])], k[static_cast<size_t>(e[1])]);
+      const std::uint32_t en = edge(k[static_cast<size_t>(e[0])], k[static_cast<size_t>(e[1])]);
       if (en == kInvalidIndex) continue;
       Vec3 b = Vec3::Zero();
-      b[e[0]] = cut_nodes_[en].bary[0];  // key order of an edge is ascending, as in the face key
-      b[e[1]] = cut_nodes_[en].bary[1];
+      b[e[0]] = nodes_[en].bary[0];  // key order of an edge is ascending, as in the face key
+      b[e[1]] = nodes_[en].bary[1];
       ends.push_back(b);
       single_edge = en;
     }
-    const std::uint32_t entry = face_node(entry_nodes_, k);
-    if (entry != kInvalidIndex) ends.push_back(cut_nodes_[entry].bary);
+    const std::uint32_t entry_id = entry(k);
+    if (entry_id != kInvalidIndex) ends.push_back(nodes_[entry_id].bary);
     if (ends.size() >= 2) {
       w = Vec3::Zero();
       for (const auto& b : ends) w += b / static_cast<double>(ends.size());
@@ -112,7 +124,7 @@ void CutEngine::update_face_position(std::uint32_t id) {
       // One cut edge: follow the swept surface's plane from the cut point across the face.
       const Vec3 start = ends[0];
       const Vec3 x = start[0] * pa + start[1] * pb + start[2] * pc;
-      const Vec3& normal = cut_nodes_[single_edge].sheet_normal;
+      const Vec3& normal = nodes_[single_edge].sheet_normal;
       const std::array<Vec3, 3> p{pa, pb, pc};
       w = (start + Vec3::Constant(1.0 / 3.0)) / 2.0;  // if the plane misses the face
       for (int i = 0; i < 3 && normal.squaredNorm() > 0; ++i) {
@@ -134,13 +146,13 @@ void CutEngine::update_face_position(std::uint32_t id) {
       w = Vec3::Constant(1.0 / 3.0);
     }
   }
-  w = clamp_interior(w, options_.min_face_bary);
+  w = clamp_interior(w, min_face_bary_);
 
   // With an entry node on the face, the mid node lies in one of the three parts the entry node
   // cuts the face into; keep it clearly inside that part.
-  const std::uint32_t entry = face_node(entry_nodes_, k);
-  if (entry != kInvalidIndex) {
-    const Vec3 e = cut_nodes_[entry].bary;
+  const std::uint32_t entry_id = entry(k);
+  if (entry_id != kInvalidIndex) {
+    const Vec3 e = nodes_[entry_id].bary;
     int best = -1;
     double best_min = -1e300;
     Vec3 best_local;
@@ -156,49 +168,48 @@ void CutEngine::update_face_position(std::uint32_t id) {
         best_local = local;
       }
     }
-    best_local = clamp_interior(best_local, options_.min_face_bary);
+    best_local = clamp_interior(best_local, min_face_bary_);
     w = best_local[0] * e;
     w[(best + 1) % 3] += best_local[1];
     w[(best + 2) % 3] += best_local[2];
     n.entry_subtriangle = best;
   }
   n.bary = w;
-  place_cut_node(id);
+  place(id);
 }
 
-bool CutEngine::face_has_edge_node(const Key3& k) const {
-  return edge_node(k[0], k[1]) != kInvalidIndex || edge_node(k[1], k[2]) != kInvalidIndex ||
-         edge_node(k[0], k[2]) != kInvalidIndex;
+bool CutNodes::face_has_edge_node(const Key& k) const {
+  return edge(k[0], k[1]) != kInvalidIndex || edge(k[1], k[2]) != kInvalidIndex ||
+         edge(k[0], k[2]) != kInvalidIndex;
 }
 
-void CutEngine::undo_face(const Key3& k, bool mid) {
-  const auto entry = entry_nodes_.find(k);
-  if (entry != entry_nodes_.end()) {
-    undone_.push_back(entry->second);
-    entry_nodes_.erase(entry);
+void CutNodes::undo_face(const Key& k, bool with_mid) {
+  const auto entry_it = entries_.find(k);
+  if (entry_it != entries_.end()) {
+    undone_.push_back(entry_it->second);
+    entries_.erase(entry_it);
   }
-  const std::uint32_t m = face_node(mid_nodes_, k);
+  const std::uint32_t m = mid(k);
   if (m == kInvalidIndex) return;
-  if (mid) {
+  if (with_mid) {
     undone_.push_back(m);
-    mid_nodes_.erase(k);
-    crossing_faces_.erase(k);
+    mids_.erase(k);
+    crossing_.erase(k);
   } else {
-    cut_nodes_[m].entry_subtriangle = -1;
+    nodes_[m].entry_subtriangle = -1;
     update_face_position(m);
   }
 }
 
 // Removes the real nodes of undone cut nodes, which no element uses any more after the rebuild;
 // returns how many.
-std::size_t CutEngine::remove_undone_nodes() {
+std::size_t CutNodes::remove_undone() {
   if (undone_.empty()) return 0;
   std::vector<NodeId> dead;
   for (const std::uint32_t id : undone_) {
-    CutNode& n = cut_nodes_[id];
+    CutNode& n = nodes_[id];
     for (const NodeId c : n.copies) {
-      if (!mesh_.node_tets(c).empty())
-        throw std::logic_error("CutEngine: an undone cut node is still in use");
+      if (!mesh_.node_tets(c).empty()) throw std::logic_error("CutNodes: an undone cut node is still in use");
       dead.push_back(c);
     }
     n.copies.clear();
@@ -210,7 +221,7 @@ std::size_t CutEngine::remove_undone_nodes() {
 
 // Removes real nodes no element uses. One made in this step leaves the step's changes; the tissue
 // model learns of the others by the removed elements that held them.
-std::size_t CutEngine::remove_nodes(const std::vector<NodeId>& dead) {
+std::size_t CutNodes::remove_nodes(const std::vector<NodeId>& dead) {
   if (dead.empty()) return 0;
   auto is_dead = [&](NodeId x) { return std::find(dead.begin(), dead.end(), x) != dead.end(); };
   for (std::size_t i = changes_.added_nodes.size(); i-- > 0;)
@@ -223,37 +234,65 @@ std::size_t CutEngine::remove_nodes(const std::vector<NodeId>& dead) {
   return dead.size();
 }
 
-// A new cut node with one real copy, interpolated from its coarse nodes with weights `bary`.
-std::uint32_t CutEngine::create_cut_node(CutNodeKind kind, const Key3& key, const Vec3& bary) {
+std::uint32_t CutNodes::add(CutNodeKind kind, const Key& key, const Vec3& bary, std::uint64_t stroke) {
+  const auto id = static_cast<std::uint32_t>(nodes_.size());
+  if (!map_of(kind).emplace(key, id).second)
+    throw std::logic_error("CutNodes::add: the face or edge holds a cut node of that kind already");
   CutNode n;
   n.kind = kind;
   n.key = key;
   n.bary = bary;
-  n.copies.push_back(add_node(key_parents(mesh_, key, bary)));
-  n.placed_bary = bary;  // the copy is interpolated at `bary` by add_node
-  n.stroke = stroke_;
-  cut_nodes_.push_back(std::move(n));
-  return static_cast<std::uint32_t>(cut_nodes_.size() - 1);
+  n.copies.push_back(add_real_node(key_parents(mesh_, key, bary)));
+  n.placed_bary = bary;  // the copy is interpolated at `bary`
+  n.stroke = stroke;
+  nodes_.push_back(std::move(n));
+  return id;
 }
 
-NodeId CutEngine::add_node(const NodeParents& parents) {
+NodeId CutNodes::add_real_node(const NodeParents& parents) {
   const NodeId n = mesh_.add_interpolated_node(parents);
   changes_.added_nodes.push_back(n);
   changes_.added_node_parents.push_back(parents);
   return n;
 }
 
-std::vector<Vec3> CutEngine::cut_points() const {
+void CutNodes::forget(std::uint32_t id) {
+  CutNode& n = nodes_[id];
+  auto& map = map_of(n.kind);
+  const auto it = map.find(n.key);
+  if (it != map.end() && it->second == id) map.erase(it);
+  if (n.kind == CutNodeKind::Mid) crossing_.erase(n.key);
+  n.crossing = false;
+}
+
+void CutNodes::set_crossing(std::uint32_t mid_id, bool crossing) {
+  CutNode& n = nodes_[mid_id];
+  n.crossing = crossing;
+  if (crossing)
+    crossing_.insert(n.key);
+  else
+    crossing_.erase(n.key);
+}
+
+void CutNodes::update_crossings(const FlatSet<Key>& now) {
+  for (const Key& k : crossing_)
+    if (!now.contains(k)) nodes_[mids_.at(k)].crossing = false;  // settle at the averaged trajectory (§5.2)
+  crossing_.clear();
+  for (const Key& k : now)
+    if (nodes_[mids_.at(k)].crossing) crossing_.insert(k);
+}
+
+std::vector<Vec3> CutNodes::cut_points() const {
   std::vector<Vec3> out;
-  for (const CutNode& n : cut_nodes_)
+  for (const CutNode& n : nodes_)
     if (n.kind != CutNode::Kind::Mid && !n.copies.empty()) out.push_back(mesh_.rest(n.copies[0]));
   return out;
 }
 
-std::string CutEngine::check_faithful(double tolerance) const {
+std::string CutNodes::check_faithful(double tolerance) const {
   std::string out;
-  for (std::size_t id = 0; id < cut_nodes_.size(); ++id) {
-    const CutNode& n = cut_nodes_[id];
+  for (std::size_t id = 0; id < nodes_.size(); ++id) {
+    const CutNode& n = nodes_[id];
     const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
     Vec3 expect = Vec3::Zero();
     double sum = 0.0, lo = 1.0;
@@ -273,6 +312,33 @@ std::string CutEngine::check_faithful(double tolerance) const {
     }
   }
   return out;
+}
+
+// A sub-tetrahedron face on the cut surface: three cut nodes, none crossed only by the blunt side.
+// Faces with an entry node are the strip between the tip's path and the cut above it: without them
+// the crack would end at the mid nodes half a face above the tip (§4.1, the cut surface reaches the
+// tool). Entry nodes themselves never open (the surface ends there), and such a face must lie on one
+// stroke's surface: an entry node beside a node of an earlier cut joins two surfaces that meet there
+// only, and would free a chip neither encloses.
+bool CutNodes::is_crack_face(GNode a, GNode b, GNode c) const {
+  const CutNode* entry = nullptr;
+  for (const GNode g : {a, b, c}) {
+    if (!(g & kCutBit)) return false;
+    const CutNode& n = nodes_[static_cast<std::uint32_t>(g & ~kCutBit)];
+    if (n.registered) return false;
+    if (n.kind == CutNode::Kind::Entry) entry = &n;
+  }
+  if (entry == nullptr) return true;
+  for (const GNode g : {a, b, c})
+    if (nodes_[static_cast<std::uint32_t>(g & ~kCutBit)].stroke != entry->stroke) return false;
+  return true;
+}
+
+// Entry nodes lie on the tip's path, where the cut surface ends, and registered edge nodes were
+// crossed only by the blunt side: neither ever separates.
+bool CutNodes::opens(std::uint32_t id) const {
+  const CutNode& n = nodes_[id];
+  return n.kind != CutNode::Kind::Entry && !n.registered;
 }
 
 }  // namespace scalpel
