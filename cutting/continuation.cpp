@@ -52,7 +52,7 @@ Vec3 CutEngine::face_sheet_normal(const Key3& k) const {
 
 std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, const BladePose& pose) const {
   std::map<std::uint32_t, bool> out;
-  const auto& x = coarse_.positions();
+  const auto& x = units_.mesh().positions();
   auto point_of = [&](const CutNode& n) {
     Vec3 p = Vec3::Zero();
     for (int i = 0; i < (n.kind == CutNode::Kind::Edge ? 2 : 3); ++i)
@@ -73,10 +73,9 @@ std::map<std::uint32_t, bool> CutEngine::recursive_units(const BladePose& prev, 
   auto add_units = [&](const Key3& key, bool only_complete, const Vec3& point = Vec3::Zero(),
                        const Vec3& normal = Vec3::Zero(), double size = 0.0) {
     for (const std::uint32_t t : coarse_tets_around(key)) {
-      const auto it = cut_tets_.find(t);
-      if (it == cut_tets_.end()) continue;
-      if (!only_complete || (it->second.complete && !extends(it->second, point, normal, size)))
-        out[t] |= !only_complete;
+      const CutUnit* c = crack_.find(t);
+      if (c == nullptr) continue;
+      if (!only_complete || (c->complete && !extends(*c, point, normal, size))) out[t] |= !only_complete;
     }
   };
   const Vec3 blade = pose.tip - pose.back;
@@ -127,22 +126,14 @@ std::vector<std::uint32_t> CutEngine::cut_component(std::uint32_t t) const {
   std::vector<std::uint32_t> out{t};
   std::set<std::uint32_t> seen{t}, nodes_seen;
   for (std::size_t i = 0; i < out.size(); ++i)
-    cut_tets_.at(out[i]).any_cut_node([&](std::uint32_t id) {
+    crack_.at(out[i]).any_cut_node([&](std::uint32_t id) {
       if (nodes_seen.insert(id).second)
         for (const std::uint32_t u : coarse_tets_around(cut_nodes_[id].key))
-          if (cut_tets_.count(u) && seen.insert(u).second) out.push_back(u);
+          if (crack_.contains(u) && seen.insert(u).second) out.push_back(u);
       return false;
     });
   std::sort(out.begin(), out.end());
   return out;
-}
-
-NodeId CutEngine::unit_node(NodeId live) {
-  while (!coarse_.node_slot_alive(live.index)) (void)coarse_.add_node(Vec3::Zero());
-  const NodeId u = coarse_.node_handle(live.index);
-  coarse_.set_rest(u, mesh_.rest(live));
-  coarse_.set_position(u, mesh_.position(live));
-  return u;
 }
 
 // §6: a component of cut units is subdivided completely to the end state of its last valid state
@@ -161,23 +152,24 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
                         CutStepStats& stats) {
   bool any = false;
   auto left_behind = [&](std::uint32_t t) {
-    return last_touch_[t] + options_.finished_after_steps < step_count_ || last_touch_[t] < stroke_start_;
+    const std::uint64_t touched = units_.last_touch(t);
+    return touched + options_.finished_after_steps < step_count_ || touched < stroke_start_;
   };
   // A unit where the cut ends (a cut node in it has not opened): promoted, those nodes could not
   // open any more, and a new cut that starts there (Fig. 12) would stay joined to the old one. The
   // basic machine continues such a unit, unless the new cut crosses the old one there or another
   // unit of its component is promoted.
   auto at_boundary = [&](std::uint32_t t) {
-    return cut_tets_.at(t).any_cut_node(
+    return crack_.at(t).any_cut_node(
         [&](std::uint32_t id) { return cut_nodes_.opens(id) && !cut_nodes_[id].opened; });
   };
   for (const auto& [seed, crosses] : units) {
-    if (refused.count(seed) || !cut_tets_.count(seed) || (!crosses && at_boundary(seed))) continue;
+    if (refused.count(seed) || !crack_.contains(seed) || (!crosses && at_boundary(seed))) continue;
     const std::vector<std::uint32_t> comp = cut_component(seed);
     std::vector<std::uint32_t> part, rest;
     for (const std::uint32_t t : comp) (left_behind(t) ? part : rest).push_back(t);
     bool too_deep = false;
-    for (const std::uint32_t t : part) too_deep |= level_[t] >= options_.max_recursion_depth;
+    for (const std::uint32_t t : part) too_deep |= units_.level(t) >= options_.max_recursion_depth;
     if (!left_behind(seed) || too_deep) {
       refused.insert(comp.begin(), comp.end());
       if (left_behind(seed) && too_deep) ++stats.recursion_fallbacks;
@@ -186,12 +178,12 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
     // Cut nodes of the promoted part; those the rest shares stay cut nodes there, pinned.
     std::set<std::uint32_t> ids, kept;
     for (const std::uint32_t t : part)
-      cut_tets_.at(t).any_cut_node([&](std::uint32_t id) {
+      crack_.at(t).any_cut_node([&](std::uint32_t id) {
         ids.insert(id);
         return false;
       });
     for (const std::uint32_t t : rest)
-      cut_tets_.at(t).any_cut_node([&](std::uint32_t id) {
+      crack_.at(t).any_cut_node([&](std::uint32_t id) {
         if (ids.count(id)) {
           kept.insert(id);
           cut_nodes_[id].pinned = true;
@@ -200,31 +192,17 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
       });
     for (const std::uint32_t t : part) seal(t, rest);
     // The crack faces stay part of the cut surface.
-    for (const CrackFace& f : crack_faces(part))
-      retired_crack_faces_.push_back(face_without(cut_tets_.at(f.unit).real[f.sub], f.face));
+    crack_.retire(part);
     for (const std::uint32_t t : part) {
-      const CutUnit c = std::move(cut_tets_.at(t));
-      cut_tets_.erase(t);
-      const TetId unit = coarse_.tet_handle(t);
-      const int region = coarse_.region(unit);
-      const std::uint8_t level = static_cast<std::uint8_t>(level_[t] + 1);
+      const CutUnit c = crack_.take(t);
+      const int region = units_.mesh().region(units_.mesh().tet_handle(t));
+      const int level = units_.level(t) + 1;
       sweep_->on_tet_removed(t);
-      coarse_.remove_tet(unit);
+      units_.remove(t);
       for (std::size_t s = 0; s < c.live.size(); ++s) {
-        std::array<NodeId, 4> nodes{};
-        for (int i = 0; i < 4; ++i)
-          nodes[static_cast<size_t>(i)] = unit_node(c.real[s][static_cast<size_t>(i)]);
-        const TetId child = coarse_.add_tet(nodes, region);
-        if (unit_live_.size() <= child.index) {
-          unit_live_.resize(child.index + 1, kInvalidIndex);
-          level_.resize(child.index + 1, 0);
-          last_touch_.resize(child.index + 1, 0);
-        }
-        unit_live_[child.index] = c.live[s].index;
-        level_[child.index] = level;
-        last_touch_[child.index] = 0;
-        live_to_coarse_[c.live[s].index] = child.index;
-        sweep_->on_tet_added(child.index);
+        const std::uint32_t child = units_.add(mesh_, c.real[s], c.live[s].index, region, level);
+        crack_.set_unit_of(c.live[s].index, child);
+        sweep_->on_tet_added(child);
       }
       stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
     }
@@ -256,8 +234,8 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
 // while `t`'s subdivision splits them: those holding cut data. Each of their pieces in `t`'s
 // subdivision is sealed with them.
 void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
-  const CutUnit& c = cut_tets_.at(t);
-  const auto& v = coarse_.tet_vertex_indices(t);
+  const CutUnit& c = crack_.at(t);
+  const auto& v = units_.mesh().tet_vertex_indices(t);
   auto in = [](const Key3& outer, std::uint32_t slot) {
     return slot == kInvalidIndex || std::find(outer.begin(), outer.end(), slot) != outer.end();
   };
@@ -278,7 +256,7 @@ void CutEngine::seal(std::uint32_t t, const std::vector<std::uint32_t>& rest) {
     seals_.add(edge_key(a, d), outer);
   };
   for (int f = 0; f < 4; ++f) {
-    const auto fv = face_vertex_indices(coarse_, t, f);
+    const auto fv = face_vertex_indices(units_.mesh(), t, f);
     const Key3 face = sorted_key(fv[0], fv[1], fv[2]);
     const bool cut = cut_nodes_.mid(face) != kInvalidIndex || cut_nodes_.entry(face) != kInvalidIndex ||
                      cut_nodes_.face_has_edge_node(face);
@@ -320,7 +298,7 @@ bool CutEngine::along_former_cut(const EdgeCut& e, const BladePose& prev, const 
   if (!na.opened || !nb.opened) return false;
   const Vec3 &ma = na.sheet_normal, &mb = nb.sheet_normal;
   if (ma.squaredNorm() == 0 || mb.squaredNorm() == 0) return false;  // surface unknown
-  const auto& x = coarse_.positions();
+  const auto& x = units_.mesh().positions();
   const double size = (x[e.a] - x[e.b]).norm();
   const double angle = options_.same_cut_angle_deg, distance = options_.same_cut_distance;
   if (!near_surface(x[e.a], ma, x[e.b], mb, size, angle, distance) ||

@@ -1,8 +1,8 @@
 // The cut engine (paper section 3): one step of the blade, from the sweep's events through the
 // cut nodes, the subdivision and the crack to the live mesh; point location for the tool. The
-// sections it calls live beside it, each owning its data: the cut-node store (CutNodes), the
-// Subdivision of a unit, the crack's VirtualNodes (and crack.cpp: the live elements and the cut
-// surface), the continuation (continuation.cpp) and its Seals.
+// sections it calls live beside it, each owning its data: the Units, the cut-node store
+// (CutNodes), the Subdivision of a unit, the Crack with the cut units' live elements and its
+// VirtualNodes, and the Seals of the continuation (whose promotion is continuation.cpp).
 #include "cutting/cut_engine.hpp"
 
 #include <algorithm>
@@ -44,29 +44,17 @@ void CutTotals::add(const CutStepStats& s) {
 
 CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
     : mesh_(mesh),
-      coarse_(mesh),
       options_(options),
       table_(options.table ? *options.table : default_cut_table()),
       coarse_volume_(mesh.total_rest_volume()),
-      cut_nodes_(mesh_, coarse_, changes_, options.min_face_bary),
-      subdivision_(coarse_, cut_nodes_, table_),
-      seals_(coarse_),
-      virtual_nodes_(mesh_, coarse_, cut_nodes_, seals_) {
-  // The units grow when a cut is continued recursively (§6): room for an eighth more, so that the
-  // first continuations of a session do not copy the whole unit mesh.
-  coarse_.reserve(coarse_.node_capacity() + coarse_.node_capacity() / 8,
-                  coarse_.tet_capacity() + coarse_.tet_capacity() / 8);
-  sweep_ = std::make_unique<BladeSweep>(coarse_);
+      units_(mesh),
+      cut_nodes_(mesh_, units_.mesh(), changes_, options.min_face_bary),
+      subdivision_(units_.mesh(), cut_nodes_, table_),
+      crack_(mesh_, units_.mesh(), cut_nodes_, changes_),
+      seals_(units_.mesh()),
+      virtual_nodes_(mesh_, units_.mesh(), cut_nodes_, seals_) {
+  sweep_ = std::make_unique<BladeSweep>(units_.mesh());
   (void)canonicalize({});  // builds the canonical-state table now, not in the first cut step
-  live_to_coarse_.resize(mesh.tet_capacity());
-  std::iota(live_to_coarse_.begin(), live_to_coarse_.end(), 0u);
-  unit_live_ = live_to_coarse_;
-  level_.assign(mesh.tet_capacity(), 0);
-  last_touch_.assign(mesh.tet_capacity(), 0);
-  for (auto* v : {&unit_live_, &live_to_coarse_})
-    v->reserve(coarse_.tet_capacity() + coarse_.tet_capacity() / 8);
-  level_.reserve(unit_live_.capacity());
-  last_touch_.reserve(unit_live_.capacity());
   original_.resize(mesh.tet_capacity());
   for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t)
     if (mesh.tet_slot_alive(t)) original_[t] = mesh.tet_vertex_indices(t);
@@ -75,9 +63,7 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
 CutEngine::~CutEngine() = default;
 
 void CutEngine::refit() {
-  auto& x = coarse_.positions();
-  const auto& live = mesh_.positions();
-  std::copy(live.begin(), live.begin() + static_cast<std::ptrdiff_t>(x.size()), x.begin());
+  units_.follow(mesh_);
   sweep_->refit();
 }
 
@@ -90,37 +76,35 @@ void CutEngine::place(const BladePose& pose) {
 
 std::uint32_t CutEngine::coarse_of(TetId live) const {
   if (!mesh_.alive(live)) throw std::logic_error("CutEngine::coarse_of: stale handle");
-  return live.index < live_to_coarse_.size() ? live_to_coarse_[live.index] : kInvalidIndex;
+  return crack_.unit_of(live.index);
 }
 
 CutTopology CutEngine::topology(std::uint32_t coarse_slot) const {
-  const auto it = cut_tets_.find(coarse_slot);
-  return it == cut_tets_.end() ? CutTopology{} : it->second.topology;
+  const CutUnit* c = crack_.find(coarse_slot);
+  return c == nullptr ? CutTopology{} : c->topology;
 }
 
 CanonicalState CutEngine::state(std::uint32_t coarse_slot) const {
-  const auto it = cut_tets_.find(coarse_slot);
-  return it == cut_tets_.end() ? CanonicalState{} : it->second.state;
+  const CutUnit* c = crack_.find(coarse_slot);
+  return c == nullptr ? CanonicalState{} : c->state;
 }
 
 std::string CutEngine::state_label_of(std::uint32_t coarse_slot) const {
-  const auto it = cut_tets_.find(coarse_slot);
-  if (it == cut_tets_.end()) return table_.label({}, false);
-  return table_.label(it->second.topology, it->second.complete);
+  const CutUnit* c = crack_.find(coarse_slot);
+  return c == nullptr ? table_.label({}, false) : table_.label(c->topology, c->complete);
 }
 
 int CutEngine::state_code_of(std::uint32_t coarse_slot) const {
-  const auto it = cut_tets_.find(coarse_slot);
-  if (it == cut_tets_.end()) return table_.label_code({}, false);
-  return table_.label_code(it->second.topology, it->second.complete);
+  const CutUnit* c = crack_.find(coarse_slot);
+  return c == nullptr ? table_.label_code({}, false) : table_.label_code(c->topology, c->complete);
 }
 
 std::vector<std::size_t> CutEngine::subdivision_sizes() const {
   std::vector<std::uint32_t> keys;
-  for (const auto& [k, v] : cut_tets_) keys.push_back(k);
+  for (const auto& [k, v] : crack_.units()) keys.push_back(k);
   std::sort(keys.begin(), keys.end());
   std::vector<std::size_t> out;
-  for (const auto k : keys) out.push_back(cut_tets_.at(k).live.size());
+  for (const auto k : keys) out.push_back(crack_.at(k).live.size());
   return out;
 }
 
@@ -134,10 +118,8 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   before.clear();
   for (const auto* set : {&affected, &left_faces_tets})
     for (const std::uint32_t t : *set) {
-      const auto it = cut_tets_.find(t);
-      before.emplace_back(t, it == cut_tets_.end()
-                                 ? MachineState{}
-                                 : MachineState{it->second.state.reference, it->second.complete});
+      const CutUnit* c = crack_.find(t);
+      before.emplace_back(t, c == nullptr ? MachineState{} : MachineState{c->state.reference, c->complete});
     }
   // By unit, each once (a unit in both sets has the same state in each). std::sort, as every sort of
   // a step: std::stable_sort allocates a buffer.
@@ -149,14 +131,12 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   auto& regroup_ids = scratch.regroup_ids;
   regroup_ids.clear();
   for (const std::uint32_t t : affected) {
-    auto [it, fresh] = cut_tets_.try_emplace(t);
-    CutUnit& c = it->second;
-    if (fresh) {
-      const TetId live = mesh_.tet_handle(unit_live_[t]);
-      c.live = {live};
-      c.real = {mesh_.tet_nodes(live)};
+    CutUnit* found = crack_.find(t);
+    if (found == nullptr) {
+      found = &crack_.start(t, mesh_.tet_handle(units_.live(t)));
       ++totals_.coarse_tets_cut;
     }
+    CutUnit& c = *found;
     c.topology = subdivision_.topology(t);
     c.state = canonicalize(c.topology);
     subdivision_.subdivide(t, c.state, c.subs);
@@ -170,12 +150,12 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   // faces (a stroke extending its cut); one whose cut did not change stays as it was. Only
   // tetrahedra whose cut changed or whose faces the blade left can change.
   for (const auto& [t, from] : before) {
-    const auto it = cut_tets_.find(t);
-    if (it == cut_tets_.end()) continue;
-    CutUnit& c = it->second;
+    CutUnit* found = crack_.find(t);
+    if (found == nullptr) continue;
+    CutUnit& c = *found;
     bool crossed = false;
     for (int f = 0; f < 4 && !crossed; ++f) {
-      const auto fv = face_vertex_indices(coarse_, t, f);
+      const auto fv = face_vertex_indices(units_.mesh(), t, f);
       const std::uint32_t id = cut_nodes_.mid(sorted_key(fv[0], fv[1], fv[2]));
       crossed = id != kInvalidIndex && cut_nodes_[id].crossing;
     }
@@ -195,9 +175,13 @@ std::size_t CutEngine::commit(const FlatSet<std::uint32_t>& affected,
   rebuild.insert(affected.begin(), affected.end());
   auto& regrouped = scratch.regrouped;
   regrouped.clear();
-  for (const std::uint32_t id : regroup_ids) virtual_nodes_.regroup(id, cut_tets_, regrouped);
+  for (const std::uint32_t id : regroup_ids) virtual_nodes_.regroup(id, crack_.units(), regrouped);
   rebuild.insert(regrouped.begin(), regrouped.end());
-  for (const std::uint32_t t : rebuild) rebuild_live(t, stats);
+  for (const std::uint32_t t : rebuild) {
+    const Crack::Rebuilt r = crack_.rebuild(t);
+    stats.tets_created += r.created;
+    stats.tets_removed += r.removed;
+  }
   // A copy no group took (groups that merged again once a crack face between them went, e.g. a
   // subdivision undone by tremble, §5.1) has lost its elements with the rebuild: it goes, or the
   // tissue would keep a node it never moves. Promoted units may still hold a pinned node's copy.
@@ -241,7 +225,7 @@ CutStepStats CutEngine::step(const BladePose& pose) {
 template <class F>
 bool CutEngine::for_units_at(const Vec3& p, F&& f) const {
   constexpr double kSlack = 1e-9;  // a point on a shared face belongs to either side
-  const auto& x = coarse_.positions();
+  const auto& x = units_.mesh().positions();
   bool done = false;
   std::vector<std::int32_t> stack;
   sweep_->tree().query(
@@ -249,8 +233,8 @@ bool CutEngine::for_units_at(const Vec3& p, F&& f) const {
         return !done && (box.lo.array() <= p.array()).all() && (p.array() <= box.hi.array()).all();
       },
       [&](std::uint32_t unit) {
-        if (done || !coarse_.tet_slot_alive(unit)) return;
-        const auto& v = coarse_.tet_vertex_indices(unit);
+        if (done || !units_.mesh().tet_slot_alive(unit)) return;
+        const auto& v = units_.mesh().tet_vertex_indices(unit);
         const auto w = volume_weights(p, {x[v[0]], x[v[1]], x[v[2]], x[v[3]]});
         if (w && std::all_of(w->begin(), w->end(), [](double wi) { return wi >= -kSlack; }))
           done = f(unit, *w);
@@ -272,13 +256,13 @@ CutStepStats CutEngine::follow_tissue() {
   Vec3 moved = Vec3::Zero();
   int inside = 0;
   if (placed_) {
-    const auto& before = coarse_.positions();
+    const auto& before = units_.mesh().positions();
     const auto& after = mesh_.positions();
     constexpr int kPoints = 16;
     for (int k = 0; k <= kPoints; ++k) {
       const Vec3 p = blade_.back + (blade_.tip - blade_.back) * (static_cast<double>(k) / kPoints);
       const bool found = for_units_at(p, [&](std::uint32_t unit, const std::array<double, 4>& w) {
-        const auto& v = coarse_.tet_vertex_indices(unit);
+        const auto& v = units_.mesh().tet_vertex_indices(unit);
         for (std::size_t i = 0; i < 4; ++i) moved += w[i] * (after[v[i]] - before[v[i]]);
         return true;
       });
@@ -359,7 +343,7 @@ void CutEngine::collide(const BladePose& prev, const BladePose& pose, bool tool_
     if (across.squaredNorm() > 0 && along.allFinite()) heading_ = across.normalized();
   }
   blade_ = pose;
-  for (const std::uint32_t t : sweep_result_.tets) last_touch_[t] = step_count_;
+  for (const std::uint32_t t : sweep_result_.tets) units_.touch(t, step_count_);
   stats.tets_touched = sweep_result_.tets.size();
 }
 
@@ -372,8 +356,6 @@ void CutEngine::StepEvents::clear() {
   tip_left.clear();
   crossing_now.clear();
   left_faces_tets.clear();
-  pierced.clear();
-  edges.clear();
 }
 
 bool CutEngine::skip_sealed(const Key3& k, StepEvents& ev) const {
@@ -383,14 +365,15 @@ bool CutEngine::skip_sealed(const Key3& k, StepEvents& ev) const {
 }
 
 Vec3 CutEngine::face_bary(const Key3& k, const Vec3& point) const {
-  const auto& x = coarse_.positions();
+  const auto& x = units_.mesh().positions();
   return barycentric(point, x[k[0]], x[k[1]], x[k[2]]);
 }
 
 // Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
 void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEvents& ev,
                             CutStepStats& stats) {
-  auto& edges = ev.edges;
+  auto& edges = sweep_order_.edges;  // pointers into this step's sweep result
+  edges.clear();
   for (const auto& e : sweep_result_.edges) edges.push_back(&e);
   // Stable: crossings at one u keep the sweep's order (their addresses, in one vector).
   std::sort(edges.begin(), edges.end(),
@@ -432,7 +415,6 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
     ev.new_edges.push_back(k);
     ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
-  edges.clear();  // they point into this step's sweep result
 }
 
 void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {
@@ -440,11 +422,12 @@ void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {
   // step is the tip leaving by the face it came in by (§5.1, handled below).
   // Per pierced face, once: the tetrahedron the tip goes into last (kInvalidIndex: out of the
   // mesh) and the first point, in the order of the faces' keys.
-  auto& pierced = ev.pierced;
+  auto& pierced = sweep_order_.pierced;
+  pierced.clear();
   for (const auto& p : sweep_result_.pierces)
     pierced.push_back({sorted_key(p.nodes[0], p.nodes[1], p.nodes[2]), p.tet, p.entering, p.point,
                        static_cast<std::uint32_t>(pierced.size())});
-  std::sort(pierced.begin(), pierced.end(), [](const StepEvents::Pierce& a, const StepEvents::Pierce& b) {
+  std::sort(pierced.begin(), pierced.end(), [](const SweepOrder::Pierce& a, const SweepOrder::Pierce& b) {
     return a.face < b.face || (a.face == b.face && a.order < b.order);
   });
   for (std::size_t i = 0; i < pierced.size();) {
@@ -563,7 +546,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   CutStepStats stats;
   changes_.clear();
   const std::size_t nodes_before = mesh_.node_count();
-  const auto& v = coarse_.tet_vertex_indices(t);
+  const auto& v = units_.mesh().tet_vertex_indices(t);
   std::set<Key3> faces;
   auto make = [&](CutNode::Kind kind, const Key3& k, const Vec3& w) {
     const std::uint32_t known = kind == CutNode::Kind::Edge  ? cut_nodes_.edge(k[0], k[1])
@@ -580,7 +563,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
     for (const Key3& fk : faces_around_edge(k)) faces.insert(fk);
   }
   for (int f = 0; f < 4; ++f) {
-    const auto fv = face_vertex_indices(coarse_, t, f);
+    const auto fv = face_vertex_indices(units_.mesh(), t, f);
     const Key3 k = sorted_key(fv[0], fv[1], fv[2]);
     if (local.entries & (1u << f)) {
       make(CutNode::Kind::Entry, k, Vec3(0.2, 0.35, 0.45));
@@ -599,15 +582,74 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
     cut_nodes_.set_crossing(id, !complete);
     cut_nodes_.update_face_position(id);
   }
-  for (const Key3& k : faces)
-    for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
-  for (const auto& [k, id] : cut_nodes_.entries())
-    for (const std::uint32_t a : coarse_tets_around(k)) affected.insert(a);
+  const auto add = [&](std::uint32_t a) { affected.insert(a); };
+  for (const Key3& k : faces) for_coarse_tets_around(k, add);
+  for (const auto& [k, id] : cut_nodes_.entries()) for_coarse_tets_around(k, add);
   affected.insert(t);
   const std::size_t removed = commit(affected, FlatSet<std::uint32_t>{}, stats);
   stats.nodes_created = mesh_.node_count() + removed - nodes_before;
   totals_.add(stats);
   return stats;
+}
+
+// A unit whose cut is final: in an end state (§4.4, the blade has left it) with every cut node that
+// opens opened. A unit where the cut ends inside (a node still closed) is the cut's open end, which
+// a later stroke continues (Fig. 12).
+bool CutEngine::into_final(const std::array<std::uint32_t, 3>& face) const {
+  for (const std::uint32_t t : coarse_tets_around(face)) {
+    const CutUnit* c = crack_.find(t);
+    if (c != nullptr && c->complete &&
+        !c->any_cut_node([&](std::uint32_t id) { return cut_nodes_.opens(id) && !cut_nodes_[id].opened; }))
+      return true;
+  }
+  return false;
+}
+
+std::vector<std::uint32_t> CutEngine::coarse_tets_around(const std::array<std::uint32_t, 3>& key) const {
+  std::vector<std::uint32_t> out;
+  coarse_tets_around(key, out);
+  return out;
+}
+
+void CutEngine::coarse_tets_around(const std::array<std::uint32_t, 3>& key,
+                                   std::vector<std::uint32_t>& out) const {
+  out.clear();
+  for_coarse_tets_around(key, [&](std::uint32_t t) { out.push_back(t); });
+  std::sort(out.begin(), out.end());
+}
+
+std::vector<std::array<std::uint32_t, 3>> CutEngine::faces_around_edge(
+    const std::array<std::uint32_t, 3>& key) const {
+  std::vector<Key3> out;
+  for (const std::uint32_t t : coarse_tets_around(key))
+    for (const std::uint32_t third : units_.mesh().tet_vertex_indices(t))
+      if (third != key[0] && third != key[1]) out.push_back(sorted_key(key[0], key[1], third));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+// Each crack face once, at the real nodes of the sub-tetrahedron that owns it: one side's copies,
+// so the area does not grow as the crack opens.
+double CutEngine::cut_surface_area() const {
+  double area = 0.0;
+  for (const auto& f : cut_surface_faces())
+    area += triangle_area(mesh_.position(f[0]), mesh_.position(f[1]), mesh_.position(f[2]));
+  return area;
+}
+
+std::vector<CutEngine::CutNodeCopies> CutEngine::cut_node_copies() const {
+  std::vector<CutNodeCopies> out;
+  out.reserve(cut_nodes_.size());
+  for (const CutNode& n : cut_nodes_) {
+    if (n.copies.empty()) continue;  // undone by tremble (§5.1)
+    CutNodeCopies c;
+    c.rest = mesh_.rest(n.copies[0]);
+    for (const NodeId x : n.copies)
+      if (!mesh_.node_tets(x).empty()) c.copies.push_back(x);
+    out.push_back(std::move(c));
+  }
+  return out;
 }
 
 std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const {
@@ -630,12 +672,12 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   // unit that does, within the margin (none in an opened crack).
   TetId at;
   for_units_at(p, [&](std::uint32_t unit, const std::array<double, 4>&) {
-    const auto it = cut_tets_.find(unit);
-    if (it == cut_tets_.end()) {
-      at = mesh_.tet_handle(unit_live_[unit]);
+    const CutUnit* c = crack_.find(unit);
+    if (c == nullptr) {
+      at = mesh_.tet_handle(units_.live(unit));
       return true;
     }
-    for (const TetId t : it->second.live)
+    for (const TetId t : c->live)
       if (mesh_.alive(t) && outside(corners(mesh_, mesh_.tet_vertex_indices(t.index))) <= margin) {
         at = t;
         return true;

@@ -52,12 +52,14 @@
 
 #include "base/flat_set.hpp"
 #include "cutting/blade_sweep.hpp"
+#include "cutting/crack.hpp"
 #include "cutting/cut_changes.hpp"
 #include "cutting/cut_nodes.hpp"
 #include "cutting/cut_state.hpp"
 #include "cutting/cut_table.hpp"
 #include "cutting/seals.hpp"
 #include "cutting/subdivision.hpp"
+#include "cutting/units.hpp"
 #include "cutting/virtual_nodes.hpp"
 #include "mesh/mesh.hpp"
 
@@ -174,7 +176,7 @@ class CutEngine {
   [[nodiscard]] const CutTotals& totals() const { return totals_; }
   // CutTotals::state_transitions by the script's labels: "A0->B0": count.
   [[nodiscard]] std::map<std::string, std::size_t> transitions_by_label() const;
-  [[nodiscard]] const TetMesh& coarse() const { return coarse_; }
+  [[nodiscard]] const TetMesh& coarse() const { return units_.mesh(); }
   // The state of a coarse tetrahedron (by slot): topology in local labels, or empty topology.
   [[nodiscard]] CutTopology topology(std::uint32_t coarse_slot) const;
   // Its state: the canonical topology and the absolute transformation (reference label i is local
@@ -202,7 +204,9 @@ class CutEngine {
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
   // The cut surface's triangles on one side (the live nodes of one lip), the faces that area sums.
-  [[nodiscard]] std::vector<std::array<NodeId, 3>> cut_surface_faces() const;
+  [[nodiscard]] std::vector<std::array<NodeId, 3>> cut_surface_faces() const {
+    return crack_.cut_surface_faces();
+  }
   // Each cut node (a point the cut surface passes through, in the order made) with its rest
   // position and the real copies live elements use: one while the crack is closed there, one per
   // side once it has opened (the lips of the wound).
@@ -234,6 +238,11 @@ class CutEngine {
     FlatSet<std::array<std::uint32_t, 3>> tip_left;          // faces the tip left by the way it came
     FlatSet<std::array<std::uint32_t, 3>> crossing_now;      // faces the blade crosses
     FlatSet<std::uint32_t> left_faces_tets;  // tetrahedra of faces the blade left: maybe complete now
+    void clear();
+  };
+  // The order in which edge_events() and pierce_events() take the sweep's events; their scratch.
+  struct SweepOrder {
+    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings by u
     // The sweep's pierces by face key (sorted, sweep order within a face).
     struct Pierce {
       std::array<std::uint32_t, 3> face;
@@ -243,8 +252,6 @@ class CutEngine {
       std::uint32_t order;  // in the sweep
     };
     std::vector<Pierce> pierced;
-    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings by u; empty between steps
-    void clear();
   };
   // The stages of sweep_to(): the sweep and the continuation's passes, then each kind of event.
   void collide(const BladePose& prev, const BladePose& pose, bool tool_moved, CutStepStats& stats);
@@ -261,7 +268,6 @@ class CutEngine {
   // true; returns whether it did.
   template <class F>
   bool for_units_at(const Vec3& p, F&& f) const;
-  void rebuild_live(std::uint32_t coarse_slot, CutStepStats& stats);
   // Returns how many real nodes it removed (copies no element uses any more).
   std::size_t commit(const FlatSet<std::uint32_t>& affected, const FlatSet<std::uint32_t>& left_faces_tets,
                      CutStepStats& stats);
@@ -271,12 +277,6 @@ class CutEngine {
   void for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const;
   std::vector<std::uint32_t> coarse_tets_around(const std::array<std::uint32_t, 3>& key) const;
   void coarse_tets_around(const std::array<std::uint32_t, 3>& key, std::vector<std::uint32_t>& out) const;
-  // Crack faces of the subdivisions of `units`, each once (face `face` of sub-tetrahedron `sub`).
-  struct CrackFace {
-    std::uint32_t unit, sub;
-    int face;
-  };
-  std::vector<CrackFace> crack_faces(const std::vector<std::uint32_t>& units) const;
   // Whether a unit holding `face` is in an end state whose crack has opened wherever it can (§4.4).
   bool into_final(const std::array<std::uint32_t, 3>& face) const;
   // Faces of the coarse mesh holding an edge (key {a, b, kInvalidIndex}), sorted.
@@ -292,8 +292,6 @@ class CutEngine {
   // returns whether any was. Components that cannot be promoted join `refused` (counted once).
   bool promote(const std::map<std::uint32_t, bool>& units, std::set<std::uint32_t>& refused,
                CutStepStats& stats);
-  // The unit node mirroring live node `live` (same slot), created on first use.
-  NodeId unit_node(NodeId live);
   // Seals the faces and edges of `unit`, about to be promoted, that a unit of `rest` holds whole.
   void seal(std::uint32_t unit, const std::vector<std::uint32_t>& rest);
   // Whether an edge crossing runs along an opened cut surface that holds both of the edge's ends,
@@ -310,47 +308,35 @@ class CutEngine {
                     double size, double angle_deg, double distance) const;
   Vec3 face_sheet_normal(const std::array<std::uint32_t, 3>& key) const;
 
-  TetMesh& mesh_;
-  TetMesh coarse_;
+  TetMesh& mesh_;  // the live mesh
   CutOptions options_;
   const CutTable& table_;
   double coarse_volume_;  // [m^3] rest volume of the coarse mesh: every step keeps it (invariant 4)
+
+  // The rooms of the paper's sections, each owning its data (docs/README.md).
+  Units units_;                 // the tetrahedra the state machine works on (§3, §6)
+  CutChanges changes_;          // what the current step changed in the live mesh
+  CutNodes cut_nodes_;          // the cut's edge, mid and entry nodes (§4.1, §5, §5.2)
+  Subdivision subdivision_;     // of a unit from its cut nodes (§4.2, §4.4)
+  Crack crack_;                 // the cut units, their live elements and the cut surface (§4.1)
+  Seals seals_;                 // between the promoted and the still cut part of a stroke (§6)
+  VirtualNodes virtual_nodes_;  // the copies of cut nodes on either side of the crack (§4.1)
+  // Promoted cut nodes, now corners of units, by node slot of each copy: the cut node (§6).
+  std::unordered_map<std::uint32_t, std::uint32_t> former_;
+
+  // The blade and its strokes (§3).
   std::unique_ptr<BladeSweep> sweep_;
   SweepResult sweep_result_;
   BladePose blade_{};
   bool placed_ = false;
-
-  CutChanges changes_;
-  CutNodes cut_nodes_;       // the cut's edge, mid and entry nodes (§4.1, §5, §5.2)
-  Subdivision subdivision_;  // of a unit from its cut nodes (§4.2, §4.4)
-  std::unordered_map<std::uint32_t, CutUnit> cut_tets_;  // by coarse slot
-  std::vector<std::uint32_t> live_to_coarse_;            // by live tet slot
-  // By unit slot: the live tetrahedron of a unit not cut yet, and the unit's recursion level. Unit
-  // node slots mirror live node slots (a promoted sub-tetrahedron keeps its live nodes).
-  std::vector<std::uint32_t> unit_live_;
-  std::vector<std::uint64_t> last_touch_;  // by unit slot: the last step whose sweep touched it
   std::uint64_t step_count_ = 0, stroke_start_ = 0;
   std::uint64_t stroke_ = 0;     // the current stroke (see CutOptions::earlier_cut_angle_deg)
   bool in_contact_ = false;      // the last sweep touched the tissue: the stroke goes on
   Vec3 heading_ = Vec3::Zero();  // the blade's last motion across itself, unit (follow_tissue())
-  std::vector<std::uint8_t> level_;
-  std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction
-  // Crack faces of promoted components (one side's real nodes), for the cut-surface area.
-  std::vector<std::array<NodeId, 3>> retired_crack_faces_;
-  Seals seals_;                 // between the promoted and the still cut part of a stroke (§6)
-  VirtualNodes virtual_nodes_;  // the copies of cut nodes on either side of the crack (§4.1)
-  // Promoted cut nodes, now corners of units, by node slot of each copy: the cut node.
-  std::unordered_map<std::uint32_t, std::uint32_t> former_;
-  // Scratch of rebuild_live().
-  struct {
-    std::vector<std::array<NodeId, 4>> real;
-    std::vector<std::pair<std::array<NodeId, 4>, std::size_t>> old_by_nodes;
-    std::vector<TetId> live;
-    std::vector<std::uint8_t> kept;
-    std::vector<std::size_t> to_add;
-  } rebuild_scratch_;
+  std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction (locate())
   // Scratch of sweep_to() and commit(), kept to avoid allocating on every step.
   StepEvents step_events_;
+  SweepOrder sweep_order_;
   struct {
     std::vector<std::pair<std::uint32_t, MachineState>> before;  // by unit, sorted: its state before the step
     FlatSet<std::uint32_t> regroup_ids, rebuild;

@@ -1,6 +1,6 @@
 // The cut engine's internal types and helpers, shared by the files that implement its paper sections
-// (cut_engine.cpp: the step, section 3; cut_nodes.cpp; subdivision.cpp; crack.cpp;
-// continuation.cpp; seals.cpp; virtual_nodes.cpp; docs/README.md). Not part of the library's
+// (cut_engine.cpp: the step, section 3; units.cpp; cut_nodes.cpp; subdivision.cpp; crack.cpp;
+// virtual_nodes.cpp; continuation.cpp; seals.cpp; docs/README.md). Not part of the library's
 // interface.
 #pragma once
 
@@ -159,7 +159,7 @@ void for_tets_around(const TetMesh& m, const Key3& key, F&& f) {
 
 template <class F>
 void CutEngine::for_coarse_tets_around(const std::array<std::uint32_t, 3>& key, F&& f) const {
-  cut_internal::for_tets_around(coarse_, key, f);
+  cut_internal::for_tets_around(units_.mesh(), key, f);
 }
 
 }  // namespace scalpel
