@@ -88,12 +88,9 @@ Result run(int n) {
   auto incision = [&](const Vec3& start, const Vec3& along) {
     const Vec3 back_offset = (-std::sin(0.5236) * along + Vec3(0, 0, std::cos(0.5236))) * (3 * h);
     auto blade = [&](const Vec3& tip) { return BladePose{tip + back_offset, tip, Vec3::Zero()}; };
-    std::vector<Vec3> path;
     const double step = 1e-5;  // [m] per sample
-    Vec3 tip = start + Vec3(0, 0, top + 0.5 * h);
-    for (; tip.z() > top - 1.3 * h; tip.z() -= step) path.push_back(tip);
-    for (double u = 0; u < 12 * h; u += step) path.push_back(tip + u * along);
-    for (Vec3 t = tip + 12 * h * along; t.z() < top + 0.5 * h; t.z() += step) path.push_back(t);
+    const std::vector<Vec3> path =
+        incision_path(start + Vec3(0, 0, top + 0.5 * h), top - 1.3 * h, along, 12 * h, step);
     cutter.place(blade(path.front()));
     Samples out;
     out.us.reserve(path.size());

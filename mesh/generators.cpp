@@ -96,4 +96,14 @@ TetMesh make_slab(const SlabSpec& spec) {
                    linspace(-spec.size_y / 2, spec.size_y / 2, spec.cells[1]), zs, regions, spec.split);
 }
 
+std::vector<Vec3> incision_path(const Vec3& start, double bottom, const Vec3& along, double length,
+                                double step) {
+  std::vector<Vec3> path;
+  Vec3 tip = start;
+  for (; tip.z() > bottom; tip.z() -= step) path.push_back(tip);
+  for (double u = 0; u < length; u += step) path.push_back(tip + u * along);
+  for (Vec3 t = tip + length * along; t.z() < start.z(); t.z() += step) path.push_back(t);
+  return path;
+}
+
 }  // namespace scalpel

@@ -40,4 +40,10 @@ struct SlabSpec {
 // region id = index of the layer in spec.layers.
 [[nodiscard]] TetMesh make_slab(const SlabSpec& spec);
 
+// The tip's path of a straight incision, a point every `step` [m]: down from `start` while above
+// the height `bottom`, then `length` [m] along the unit direction `along`, then up to the height of
+// `start`. A trajectory for tests and benchmarks.
+[[nodiscard]] std::vector<Vec3> incision_path(const Vec3& start, double bottom, const Vec3& along,
+                                              double length, double step);
+
 }  // namespace scalpel

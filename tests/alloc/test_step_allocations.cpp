@@ -26,11 +26,8 @@ TEST_CASE("cutter step: 19 in 20 samples that add no cut node allocate nothing, 
   const double top = n * h, mid = std::floor(n / 2.0) * h;
   const Vec3 along(1, 0, 0);
   const Vec3 back_offset = (-std::sin(0.5236) * along + Vec3(0, 0, std::cos(0.5236))) * (3 * h);
-  std::vector<Vec3> path;
-  Vec3 tip(mid - 5.79 * h, mid + 0.37 * h, top + 0.5 * h);
-  for (; tip.z() > top - 1.3 * h; tip.z() -= 1e-5) path.push_back(tip);
-  for (double u = 0; u < 12 * h; u += 1e-5) path.push_back(tip + u * along);
-  for (Vec3 t = tip + 12 * h * along; t.z() < top + 0.5 * h; t.z() += 1e-5) path.push_back(t);
+  const std::vector<Vec3> path =
+      incision_path(Vec3(mid - 5.79 * h, mid + 0.37 * h, top + 0.5 * h), top - 1.3 * h, along, 12 * h, 1e-5);
 
   cutter.place({path.front() + back_offset, path.front(), Vec3::Zero()});
   std::size_t quiet = 0, quiet_allocating = 0;

@@ -93,6 +93,26 @@ TEST_CASE("slab layers become regions from the top down") {
   }
 }
 
+TEST_CASE("an incision path goes down, along and up again in steps of the given length") {
+  // Lengths exact in binary, so that the counts below do not hang on rounding.
+  const Vec3 start(1, 2, 3), along(0, 1, 0);
+  const double step = 0.25;
+  const std::vector<Vec3> path = incision_path(start, 1.6, along, 2.0, step);
+  REQUIRE(path.size() == 20);
+  CHECK(path.front() == start);
+  // Down from 3 to 1.5 (the first height not above 1.6), 2 along, up to 2.75 (below the start).
+  std::size_t down = 0, across = 0, up = 0;
+  for (std::size_t i = 1; i < path.size(); ++i) {
+    const Vec3 d = path[i] - path[i - 1];
+    CHECK(d.norm() == step);
+    (d.z() < 0 ? down : d.z() > 0 ? up : across) += 1;
+  }
+  CHECK(down == 6);
+  CHECK(across == 8);
+  CHECK(up == 5);
+  CHECK(path.back() == Vec3(1, 4, 2.75));
+}
+
 TEST_CASE("validate names the broken invariant and element") {
   SUBCASE("inverted tetrahedron") {
     TetMesh m;
