@@ -99,15 +99,18 @@ FieldType parse_type(const Ctx& c, const YAML::Node& n, const std::string& key) 
 
 Axis parse_axis(const Ctx& c, const YAML::Node& n, const std::string& key, bool output) {
   static constexpr std::pair<const char*, Axis> kAxes[] = {
-      {"x", Axis::X},   {"y", Axis::Y},   {"z", Axis::Z},   {"rx", Axis::RX},          {"ry", Axis::RY},
-      {"rz", Axis::RZ}, {"qw", Axis::QW}, {"qx", Axis::QX}, {"qy", Axis::QY},          {"qz", Axis::QZ},
-      {"fx", Axis::FX}, {"fy", Axis::FY}, {"fz", Axis::FZ}, {"buttons", Axis::Buttons}};
+      {"x", Axis::X},   {"y", Axis::Y},   {"z", Axis::Z},   {"rx", Axis::RX},           {"ry", Axis::RY},
+      {"rz", Axis::RZ}, {"qw", Axis::QW}, {"qx", Axis::QX}, {"qy", Axis::QY},           {"qz", Axis::QZ},
+      {"fx", Axis::FX}, {"fy", Axis::FY}, {"fz", Axis::FZ}, {"buttons", Axis::Buttons}, {"ja", Axis::JA},
+      {"jb", Axis::JB}, {"jc", Axis::JC}, {"ia", Axis::IA}, {"ib", Axis::IB},           {"ic", Axis::IC}};
   const std::string s = c.str(n, key);
   for (const auto& [name, a] : kAxes) {
     if (s != name) continue;
-    const bool is_force = a == Axis::FX || a == Axis::FY || a == Axis::FZ;
-    if (is_force != output)
-      c.fail(n, key, output ? "output reports carry fx, fy, fz only" : "'" + s + "' is an output axis");
+    const bool is_output = (a >= Axis::FX && a <= Axis::FZ) || (a >= Axis::IA && a <= Axis::IC);
+    if (is_output != output)
+      c.fail(
+          n, key,
+          output ? "output reports carry fx, fy, fz (or ia, ib, ic) only" : "'" + s + "' is an output axis");
     return a;
   }
   c.fail(n, key, "unknown axis '" + s + "'");
@@ -320,6 +323,60 @@ std::size_t DeviceProfile::max_input_length() const {
   return n;
 }
 
+namespace {
+
+// A linkage device reads its joint angles (ja, jb, jc) and nothing else of the pose; other devices
+// read no joint angles.
+void check_linkage_axes(const Ctx& c, const YAML::Node& root, const DeviceProfile& p) {
+  std::array<bool, kValueAxes> mapped{};
+  for (const ReportLayout& r : p.input_reports)
+    for (const ReportField& f : r.fields)
+      if (f.axis < Axis::Buttons) mapped[static_cast<std::size_t>(f.axis)] = true;
+  const auto any = [&](Axis lo, Axis hi) {
+    for (auto a = static_cast<std::size_t>(lo); a <= static_cast<std::size_t>(hi); ++a)
+      if (mapped[a]) return true;
+    return false;
+  };
+  const YAML::Node in = root["input_reports"];
+  if (p.motion != Motion::Linkage) {
+    if (any(Axis::JA, Axis::JC))
+      c.fail(in, "input_reports", "joint angles ja, jb, jc are for motion: linkage");
+    if (root["linkage"]) c.fail(root["linkage"], "linkage", "only for motion: linkage");
+    return;
+  }
+  if (any(Axis::X, Axis::QZ))
+    c.fail(in, "input_reports", "a linkage device reads joint angles (ja, jb, jc), not x..qz");
+  if (!mapped[static_cast<std::size_t>(Axis::JA)] || !mapped[static_cast<std::size_t>(Axis::JB)] ||
+      !mapped[static_cast<std::size_t>(Axis::JC)])
+    c.fail(in, "input_reports", "a linkage device needs all of ja, jb, jc");
+}
+
+Linkage parse_linkage(const Ctx& c, const YAML::Node& root) {
+  const YAML::Node n = c.need(root, "linkage", "");
+  c.keys(n, "linkage", {"lengths", "origin", "ratio", "torque_constant", "max_current"});
+  Linkage l;
+  const Eigen::Vector3d lengths = c.vec3(c.need(n, "lengths", "linkage"), "linkage.lengths");
+  if ((lengths.array() < 0.0).any() || lengths[1] <= 0.0 || lengths[2] <= 0.0)
+    c.fail(n["lengths"], "linkage.lengths", "arm and forearm must be > 0, the base >= 0");
+  l.base = lengths[0];
+  l.arm = lengths[1];
+  l.forearm = lengths[2];
+  if (n["origin"]) l.origin = c.vec3(n["origin"], "linkage.origin");
+  const Eigen::Vector3d ratio = c.vec3(c.need(n, "ratio", "linkage"), "linkage.ratio");
+  if ((ratio.array() == 0.0).any()) c.fail(n["ratio"], "linkage.ratio", "must not be 0");
+  const Eigen::Vector3d kt = c.vec3(c.need(n, "torque_constant", "linkage"), "linkage.torque_constant");
+  if ((kt.array() <= 0.0).any()) c.fail(n["torque_constant"], "linkage.torque_constant", "must be > 0");
+  for (std::size_t i = 0; i < 3; ++i) {
+    l.ratio[i] = ratio[static_cast<Eigen::Index>(i)];
+    l.torque_constant[i] = kt[static_cast<Eigen::Index>(i)];
+  }
+  l.max_current = c.number(c.need(n, "max_current", "linkage"), "linkage.max_current");
+  if (!(l.max_current > 0.0)) c.fail(n["max_current"], "linkage.max_current", "must be > 0");
+  return l;
+}
+
+}  // namespace
+
 DeviceProfile parse_device_profile(const std::string& yaml_text, const std::string& file) {
   const Ctx c{file};
   YAML::Node root;
@@ -330,7 +387,7 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
   }
   c.keys(root, "",
          {"name", "transport", "match", "motion", "workspace", "home", "input_reports", "output_report",
-          "max_force", "max_force_rate", "usb"});
+          "max_force", "max_force_rate", "usb", "linkage"});
   DeviceProfile p;
   p.file = file;
   p.name = c.str(c.need(root, "name", ""), "name");
@@ -359,8 +416,10 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
     p.motion = Motion::Rate;
   else if (mo == "absolute")
     p.motion = Motion::Absolute;
+  else if (mo == "linkage")
+    p.motion = Motion::Linkage;
   else
-    c.fail(root["motion"], "motion", "expected rate or absolute, got '" + mo + "'");
+    c.fail(root["motion"], "motion", "expected rate, absolute or linkage, got '" + mo + "'");
 
   const YAML::Node ws = c.need(root, "workspace", "");
   c.keys(ws, "workspace", {"min", "max"});
@@ -405,6 +464,7 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
   if (p.motion == Motion::Rate && has_q) c.fail(in, "input_reports", "a rate device has no qw..qz axes");
   if (p.motion == Motion::Absolute && has_rot)
     c.fail(in, "input_reports", "an absolute device has no rx, ry, rz rate axes");
+  check_linkage_axes(c, root, p);
 
   if (root["output_report"]) {
     std::vector<Mapped> forces;
@@ -418,6 +478,23 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
   if (p.max_force_rate < 0.0) c.fail(root["max_force_rate"], "max_force_rate", "must be >= 0");
   if (p.output_report && (p.max_force <= 0.0 || p.max_force_rate <= 0.0))
     c.fail(root["output_report"], "output_report", "needs max_force and max_force_rate > 0");
+
+  if (p.motion == Motion::Linkage) p.linkage = parse_linkage(c, root);
+  if (p.output_report) {
+    // A linkage device takes motor currents (all three), the others a force.
+    const bool linkage = p.motion == Motion::Linkage;
+    std::array<bool, 3> currents{};
+    for (const ReportField& f : p.output_report->fields) {
+      const bool current = f.axis >= Axis::IA && f.axis <= Axis::IC;
+      if (current != linkage)
+        c.fail(root["output_report"], "output_report.fields",
+               linkage ? "a linkage device takes motor currents ia, ib, ic, not a force"
+                       : "motor currents ia, ib, ic are for motion: linkage");
+      if (current) currents[static_cast<std::size_t>(f.axis) - static_cast<std::size_t>(Axis::IA)] = true;
+    }
+    if (linkage && !(currents[0] && currents[1] && currents[2]))
+      c.fail(root["output_report"], "output_report.fields", "a linkage device needs all of ia, ib, ic");
+  }
 
   if (root["usb"]) {
     const YAML::Node u = root["usb"];
@@ -487,14 +564,16 @@ ParseResult parse_report(const DeviceProfile& p, std::span<const std::uint8_t> r
   return ParseResult::Ok;
 }
 
-std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force,
-                         std::span<std::uint8_t> report) noexcept {
+std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, std::span<std::uint8_t> report,
+                         const Eigen::Vector3d& joints) noexcept {
   if (!p.output_report || report.size() < p.output_report->length) return 0;
   const ReportLayout& r = *p.output_report;
   std::fill(report.begin(), report.begin() + static_cast<std::ptrdiff_t>(r.length), std::uint8_t{0});
   if (r.id) report[0] = *r.id;
+  const bool currents = p.linkage.has_value();
+  const Eigen::Vector3d out = currents ? p.linkage->currents(joints, force) : force;
   for (const ReportField& f : r.fields) {
-    const double v = force[static_cast<int>(f.axis) - static_cast<int>(Axis::FX)];
+    const double v = out[static_cast<int>(f.axis) - static_cast<int>(currents ? Axis::IA : Axis::FX)];
     write_raw(f.type, report.data() + f.offset, std::isfinite(v) ? v / f.scale : 0.0);
   }
   return r.length;

@@ -6,6 +6,7 @@
 //   match: [{vendor_id: 0x256f, product_id: 0xc62e}, ...]
 //   motion: rate                            # rate: axes are velocities integrated into a pose
 //                                           # absolute: axes are the pose itself
+//                                           # linkage: axes are the joint angles of an arm
 //   workspace: {min: [x, y, z], max: [x, y, z]}   # [m] poses outside are rejected
 //   home: [x, y, z]                         # [m] start pose of a rate device (default: centre)
 //   input_reports:                          # one layout per report id
@@ -17,10 +18,17 @@
 //   max_force: 3.0                          # [N]
 //   max_force_rate: 2000                    # [N/s]
 //   usb: {interface: 0, in_endpoint: 0x81, out_endpoint: 0x01, transfer: interrupt}   # usb only
+//   linkage:                                # linkage only (devices/linkage.hpp)
+//     lengths: [0.08, 0.205, 0.245]         # [m] base, arm, forearm
+//     origin: [0.22, 0, 0.08]               # [m] taken off the tip's position
+//     ratio: [0.0625, 0.0833, 0.0833]       # joint turn per motor turn, signed
+//     torque_constant: [0.0259, 0.0259, 0.0259]   # [N m / A]
+//     max_current: 3.0                      # [A]
 //
 // Axes: x y z (position [m] or velocity [m/s]), rx ry rz (angular velocity [rad/s], rate devices),
-// qw qx qy qz (orientation quaternion, absolute devices), buttons (bitmask, shifted left by `shift`);
-// output axes fx fy fz [N]. Value = raw * scale (scale may be negative: it is the axis mapping);
+// qw qx qy qz (orientation quaternion, absolute devices), ja jb jc (joint angles [rad], linkage
+// devices), buttons (bitmask, shifted left by `shift`); output axes fx fy fz [N], or ia ib ic (motor
+// currents [A], linkage devices). Value = raw * scale (scale may be negative: it is the axis mapping);
 // for output fields raw = round(force / scale), saturated to the type's range.
 // Types: u8 i8 u16le i16le u16be i16be u32le i32le f32le.
 // Fields of a report do not share bytes; an axis comes from one field of one input report (buttons
@@ -36,11 +44,36 @@
 
 #include <Eigen/Core>
 
+#include "devices/linkage.hpp"
+
 namespace scalpel {
 
 enum class FieldType : std::uint8_t { U8, I8, U16LE, I16LE, U16BE, I16BE, U32LE, I32LE, F32LE };
-enum class Axis : std::uint8_t { X, Y, Z, RX, RY, RZ, QW, QX, QY, QZ, Buttons, FX, FY, FZ };
-enum class Motion : std::uint8_t { Rate, Absolute };
+enum class Axis : std::uint8_t {
+  X,
+  Y,
+  Z,
+  RX,
+  RY,
+  RZ,
+  QW,
+  QX,
+  QY,
+  QZ,
+  JA,
+  JB,
+  JC,
+  Buttons,
+  FX,
+  FY,
+  FZ,
+  IA,
+  IB,
+  IC
+};
+// The axes that carry a value (X..JC), indexing ReportValues::axis.
+inline constexpr std::size_t kValueAxes = 13;
+enum class Motion : std::uint8_t { Rate, Absolute, Linkage };
 enum class Transport : std::uint8_t { Hid, Usb };
 
 [[nodiscard]] std::size_t field_size(FieldType t);
@@ -86,6 +119,7 @@ struct DeviceProfile {
   double max_force = 0.0;       // [N]
   double max_force_rate = 0.0;  // [N/s]
   UsbEndpoints usb;
+  std::optional<Linkage> linkage;  // Motion::Linkage
 
   [[nodiscard]] bool numbered_reports() const { return !input_reports.empty() && input_reports[0].id; }
   [[nodiscard]] bool matches(std::uint16_t vendor_id, std::uint16_t product_id) const;
@@ -101,8 +135,8 @@ struct DeviceProfile {
 
 // The values one input report carries. Only the axes present in its layout are set.
 struct ReportValues {
-  std::array<double, 10> axis{};  // indexed by Axis X..QZ
-  std::array<bool, 10> has{};
+  std::array<double, kValueAxes> axis{};  // indexed by Axis X..JC
+  std::array<bool, kValueAxes> has{};
   std::uint32_t buttons = 0;
   std::uint32_t buttons_mask = 0;  // bits this report defines
 };
@@ -114,7 +148,8 @@ enum class ParseResult : std::uint8_t { Ok, Short, Malformed };
                                        ReportValues& out) noexcept;
 
 // Encodes a force [N] into the profile's output report; returns its length (0: no output report).
-std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force,
-                         std::span<std::uint8_t> report) noexcept;
+// A linkage device's report carries motor currents, for the arm at joint angles `joints` [rad].
+std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, std::span<std::uint8_t> report,
+                         const Eigen::Vector3d& joints = Eigen::Vector3d::Zero()) noexcept;
 
 }  // namespace scalpel

@@ -63,7 +63,10 @@ void ReportDevice::update_pose(double t) noexcept {
 
   if (!fresh_) return;
   fresh_ = false;
-  const Eigen::Vector3d raw_p(ax(Axis::X), ax(Axis::Y), ax(Axis::Z));
+  // A linkage device's pose is where its arm puts the tip (devices/linkage.hpp).
+  const Eigen::Vector3d raw_p = profile_.linkage
+                                    ? profile_.linkage->position({ax(Axis::JA), ax(Axis::JB), ax(Axis::JC)})
+                                    : Eigen::Vector3d(ax(Axis::X), ax(Axis::Y), ax(Axis::Z));
   Eigen::Quaterniond raw_q = Eigen::Quaterniond::Identity();
   if (has_orientation_) raw_q = Eigen::Quaterniond(ax(Axis::QW), ax(Axis::QX), ax(Axis::QY), ax(Axis::QZ));
   const double n = raw_q.norm();
@@ -90,7 +93,7 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
     AtomicDeviceCounters::bump(counters_.reconnects);
     axis_.fill(0.0);  // rates from before the unplug are stale
     fresh_ = false;
-    reindex_ = profile_.motion == Motion::Absolute && has_pose_;
+    reindex_ = profile_.motion != Motion::Rate && has_pose_;
     has_last_t_ = false;
     state = Connected;
     state_.store(Connected, std::memory_order_release);
@@ -135,7 +138,8 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
 
 void ReportDevice::write_force(const Eigen::Vector3d& force) noexcept {
   if (!profile_.output_report || state_.load(std::memory_order_acquire) != Connected) return;
-  const std::size_t n = encode_force(profile_, force, out_);
+  const auto ax = [&](Axis a) { return axis_[static_cast<std::size_t>(a)]; };
+  const std::size_t n = encode_force(profile_, force, out_, {ax(Axis::JA), ax(Axis::JB), ax(Axis::JC)});
   if (n > 0) (void)transport_->write(std::span<const std::uint8_t>(out_.data(), n));
 }
 

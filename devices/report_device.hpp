@@ -1,6 +1,7 @@
 // A device that speaks in raw reports described by a DeviceProfile, over a ReportTransport (hidapi,
 // libusb, or a fake one in tests). Rate devices (a SpaceMouse) integrate their velocities into a
-// pose; absolute devices (a stylus) report the pose itself.
+// pose; absolute devices (a stylus) report the pose itself; linkage devices (an arm with motors,
+// WoodenHaptics) report joint angles, which give the position, and take motor currents for a force.
 //
 // Unplugging freezes the tool at its last good pose (status Disconnected, the simulation goes on);
 // maintain() reopens the device and the tool resumes from where it froze: a rate device continues
@@ -64,7 +65,7 @@ class ReportDevice final : public Device {
   AtomicDeviceCounters counters_;
 
   // Haptic thread only.
-  std::array<double, 10> axis_{};  // latest value per Axis X..QZ
+  std::array<double, kValueAxes> axis_{};  // latest value per Axis X..JC
   std::uint32_t buttons_ = 0;
   Eigen::Vector3d position_;  // [m] the tool pose given out
   Eigen::Quaterniond orientation_ = Eigen::Quaterniond::Identity();

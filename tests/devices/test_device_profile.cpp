@@ -42,7 +42,7 @@ input_reports:
 
 TEST_CASE("every shipped device profile loads and has raw report data") {
   const std::vector<DeviceProfile> all = load_device_profiles(kProfiles);
-  REQUIRE(all.size() == 3);
+  REQUIRE(all.size() == 4);
   for (const DeviceProfile& p : all) {
     CAPTURE(p.file);
     const std::string stem = std::filesystem::path(p.file).stem().string();
