@@ -19,14 +19,14 @@ namespace scalpel {
 
 class Crack {
  public:
-  using Units = std::unordered_map<std::uint32_t, CutUnit>;  // by unit slot
+  using CutUnits = std::unordered_map<std::uint32_t, CutUnit>;  // by unit slot
 
   // `mesh`: the live mesh, whose elements rebuild() replaces (recorded in `changes`); `units`: the
   // mesh of units, whose live elements are at first the ones of the same slot.
   Crack(TetMesh& mesh, const TetMesh& units, const CutNodes& nodes, CutChanges& changes);
 
   // The cut units.
-  [[nodiscard]] const Units& units() const { return cut_; }
+  [[nodiscard]] const CutUnits& units() const { return cut_; }
   [[nodiscard]] const CutUnit* find(std::uint32_t unit) const;
   [[nodiscard]] CutUnit* find(std::uint32_t unit);
   [[nodiscard]] const CutUnit& at(std::uint32_t unit) const { return cut_.at(unit); }
@@ -66,7 +66,7 @@ class Crack {
   const TetMesh& units_;
   const CutNodes& nodes_;
   CutChanges& changes_;
-  Units cut_;
+  CutUnits cut_;
   std::vector<std::uint32_t> unit_of_;  // by live tet slot
   // Crack faces of promoted units (one side's real nodes), for the cut surface.
   std::vector<std::array<NodeId, 3>> retired_faces_;

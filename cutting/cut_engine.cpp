@@ -372,8 +372,7 @@ Vec3 CutEngine::face_bary(const Key3& k, const Vec3& point) const {
 // Edge events in sweep order (§4.3). Only forward crossings cut (Eq. 1).
 void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEvents& ev,
                             CutStepStats& stats) {
-  auto& edges = sweep_order_.edges;  // pointers into this step's sweep result
-  edges.clear();
+  auto& edges = sweep_order_.edges;
   for (const auto& e : sweep_result_.edges) edges.push_back(&e);
   // Stable: crossings at one u keep the sweep's order (their addresses, in one vector).
   std::sort(edges.begin(), edges.end(),
@@ -415,6 +414,7 @@ void CutEngine::edge_events(const BladePose& prev, const BladePose& pose, StepEv
     ev.new_edges.push_back(k);
     ++(e->forward ? stats.edges_cut : stats.backward_crossings);
   }
+  edges.clear();  // they point into this step's sweep result
 }
 
 void CutEngine::pierce_events(StepEvents& ev, CutStepStats& stats) {

@@ -242,7 +242,7 @@ class CutEngine {
   };
   // The order in which edge_events() and pierce_events() take the sweep's events; their scratch.
   struct SweepOrder {
-    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings by u
+    std::vector<const EdgeCut*> edges;  // the sweep's edge crossings by u; empty between steps
     // The sweep's pierces by face key (sorted, sweep order within a face).
     struct Pierce {
       std::array<std::uint32_t, 3> face;

@@ -235,9 +235,10 @@ std::size_t CutNodes::remove_nodes(const std::vector<NodeId>& dead) {
 }
 
 std::uint32_t CutNodes::add(CutNodeKind kind, const Key& key, const Vec3& bary, std::uint64_t stroke) {
-  const auto id = static_cast<std::uint32_t>(nodes_.size());
-  if (!map_of(kind).emplace(key, id).second)
+  auto& map = map_of(kind);
+  if (map.count(key) != 0)
     throw std::logic_error("CutNodes::add: the face or edge holds a cut node of that kind already");
+  const auto id = static_cast<std::uint32_t>(nodes_.size());
   CutNode n;
   n.kind = kind;
   n.key = key;
@@ -246,6 +247,7 @@ std::uint32_t CutNodes::add(CutNodeKind kind, const Key& key, const Vec3& bary, 
   n.placed_bary = bary;  // the copy is interpolated at `bary`
   n.stroke = stroke;
   nodes_.push_back(std::move(n));
+  map.emplace(key, id);
   return id;
 }
 
@@ -268,10 +270,7 @@ void CutNodes::forget(std::uint32_t id) {
 void CutNodes::set_crossing(std::uint32_t mid_id, bool crossing) {
   CutNode& n = nodes_[mid_id];
   n.crossing = crossing;
-  if (crossing)
-    crossing_.insert(n.key);
-  else
-    crossing_.erase(n.key);
+  if (crossing) crossing_.insert(n.key);  // one that stops crossing leaves at update_crossings()
 }
 
 void CutNodes::update_crossings(const FlatSet<Key>& now) {

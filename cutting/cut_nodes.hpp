@@ -102,6 +102,8 @@ class CutNodes {
 
   // Mid nodes of the faces the blade crosses now, which follow the blade (§4.1).
   [[nodiscard]] const FlatSet<Key>& crossing_faces() const { return crossing_; }
+  // Sets whether a mid node's face is crossed; a face that stops being crossed stays among the
+  // crossing faces until update_crossings() settles it.
   void set_crossing(std::uint32_t mid_id, bool crossing);
   // After a step's crossings: the faces in `now` whose mid node crosses are the crossing faces;
   // the mid nodes of the others settle (§5.2).

@@ -13,7 +13,7 @@ using namespace cut_internal;
 // Groups the sub-tetrahedra around a cut node by face adjacency that does not cross the crack and
 // gives each group a copy of the node. Groups are ordered by the smallest coarse vertex they hold,
 // which the cut never changes, so the assignment is deterministic.
-void VirtualNodes::regroup(std::uint32_t id, const Units& cut_units, std::vector<std::uint32_t>& changed) {
+void VirtualNodes::regroup(std::uint32_t id, const CutUnits& cut_units, std::vector<std::uint32_t>& changed) {
   const std::uint32_t groups = group_around(id, cut_units);
   vote_copies(id, cut_units);
   choose_copies(id, groups);
@@ -34,7 +34,7 @@ void VirtualNodes::regroup(std::uint32_t id, const Units& cut_units, std::vector
 // The sub-tetrahedra around cut node `id` (scratch_.items), joined across the faces holding it that
 // are not crack faces, into groups numbered by the smallest vertex they hold (scratch_.item_group);
 // returns how many.
-std::uint32_t VirtualNodes::group_around(std::uint32_t id, const Units& cut_units) {
+std::uint32_t VirtualNodes::group_around(std::uint32_t id, const CutUnits& cut_units) {
   const CutNode& n = nodes_[id];
   const GNode g = kCutBit | id;
   auto& items = scratch_.items;
@@ -99,7 +99,7 @@ std::uint32_t VirtualNodes::group_around(std::uint32_t id, const Units& cut_unit
   return static_cast<std::uint32_t>(order.size());
 }
 
-void VirtualNodes::vote_copies(std::uint32_t id, const Units& cut_units) {
+void VirtualNodes::vote_copies(std::uint32_t id, const CutUnits& cut_units) {
   const CutNode& n = nodes_[id];
   const auto& items = scratch_.items;
   // Copies follow their elements: once the crack has opened, the copies of n stand apart, and an
@@ -230,6 +230,4 @@ void VirtualNodes::choose_copies(std::uint32_t id, std::uint32_t groups) {
   }
 }
 
-// Brings the live sub-tetrahedra of one coarse tetrahedron in line with its subdivision and the
-// node groups: elements whose real nodes are unchanged stay (minimal removals, §4.3).
 }  // namespace scalpel

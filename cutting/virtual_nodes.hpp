@@ -21,7 +21,7 @@ namespace scalpel {
 
 class VirtualNodes {
  public:
-  using Units = std::unordered_map<std::uint32_t, CutUnit>;  // the cut units by slot
+  using CutUnits = std::unordered_map<std::uint32_t, CutUnit>;  // the cut units by slot
 
   // `mesh`: the live mesh; `units`: the mesh of units; `nodes`: the cut nodes, whose copies and
   // groups regroup() sets; `seals`: where promoted units hold a pinned node's copy (§6).
@@ -31,13 +31,13 @@ class VirtualNodes {
   // Groups the sub-tetrahedra of `cut_units` around cut node `id` and gives each group a copy of
   // the node (CutNode::group_of, CutNode::copies); appends the units whose sub-tetrahedra changed
   // group to `changed`.
-  void regroup(std::uint32_t id, const Units& cut_units, std::vector<std::uint32_t>& changed);
+  void regroup(std::uint32_t id, const CutUnits& cut_units, std::vector<std::uint32_t>& changed);
 
  private:
   // regroup()'s stages, over scratch_: the groups of sub-tetrahedra around the node (returns how
   // many), the old copies each group's corners vote for, and the copy each group takes.
-  std::uint32_t group_around(std::uint32_t id, const Units& cut_units);
-  void vote_copies(std::uint32_t id, const Units& cut_units);
+  std::uint32_t group_around(std::uint32_t id, const CutUnits& cut_units);
+  void vote_copies(std::uint32_t id, const CutUnits& cut_units);
   void choose_copies(std::uint32_t id, std::uint32_t groups);
 
   const TetMesh& mesh_;

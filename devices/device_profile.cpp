@@ -479,7 +479,21 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
   if (p.output_report && (p.max_force <= 0.0 || p.max_force_rate <= 0.0))
     c.fail(root["output_report"], "output_report", "needs max_force and max_force_rate > 0");
 
-  if (p.motion == Motion::Linkage) p.linkage = parse_linkage(c, root);
+  if (p.motion == Motion::Linkage) {
+    p.linkage = parse_linkage(c, root);
+    // A joint's angle is its field's scale times the motor's counts, and a motor's torque is the
+    // joint's times the ratio: two signs for one direction. Were they to differ, the motor would
+    // push its joint the wrong way, and a contact would feed itself.
+    for (const ReportLayout& r : p.input_reports)
+      for (const ReportField& f : r.fields) {
+        if (f.axis < Axis::JA || f.axis > Axis::JC) continue;
+        const auto k = static_cast<std::size_t>(f.axis) - static_cast<std::size_t>(Axis::JA);
+        if ((f.scale > 0) != (p.linkage->ratio[k] > 0))
+          c.fail(root["linkage"]["ratio"], "linkage.ratio",
+                 std::string("the sign of joint ") + "abc"[k] +
+                     "'s ratio differs from that of its field's scale");
+      }
+  }
   if (p.output_report) {
     // A linkage device takes motor currents (all three), the others a force.
     const bool linkage = p.motion == Motion::Linkage;
@@ -564,16 +578,19 @@ ParseResult parse_report(const DeviceProfile& p, std::span<const std::uint8_t> r
   return ParseResult::Ok;
 }
 
-std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, std::span<std::uint8_t> report,
-                         const Eigen::Vector3d& joints) noexcept {
+std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, const Eigen::Vector3d& joints,
+                         std::span<std::uint8_t> report) noexcept {
   if (!p.output_report || report.size() < p.output_report->length) return 0;
   const ReportLayout& r = *p.output_report;
   std::fill(report.begin(), report.begin() + static_cast<std::ptrdiff_t>(r.length), std::uint8_t{0});
   if (r.id) report[0] = *r.id;
-  const bool currents = p.linkage.has_value();
-  const Eigen::Vector3d out = currents ? p.linkage->currents(joints, force) : force;
+  const Eigen::Vector3d amps = p.linkage ? p.linkage->currents(joints, force) : Eigen::Vector3d::Zero();
   for (const ReportField& f : r.fields) {
-    const double v = out[static_cast<int>(f.axis) - static_cast<int>(currents ? Axis::IA : Axis::FX)];
+    double v = 0.0;  // a field of neither kind (a profile made in code) writes 0
+    if (f.axis >= Axis::FX && f.axis <= Axis::FZ)
+      v = force[static_cast<int>(f.axis) - static_cast<int>(Axis::FX)];
+    else if (f.axis >= Axis::IA && f.axis <= Axis::IC)
+      v = amps[static_cast<int>(f.axis) - static_cast<int>(Axis::IA)];
     write_raw(f.type, report.data() + f.offset, std::isfinite(v) ? v / f.scale : 0.0);
   }
   return r.length;

@@ -29,7 +29,8 @@
 // qw qx qy qz (orientation quaternion, absolute devices), ja jb jc (joint angles [rad], linkage
 // devices), buttons (bitmask, shifted left by `shift`); output axes fx fy fz [N], or ia ib ic (motor
 // currents [A], linkage devices). Value = raw * scale (scale may be negative: it is the axis mapping);
-// for output fields raw = round(force / scale), saturated to the type's range.
+// for output fields raw = round(value / scale) (a force, or a linkage device's motor current),
+// saturated to the type's range.
 // Types: u8 i8 u16le i16le u16be i16be u32le i32le f32le.
 // Fields of a report do not share bytes; an axis comes from one field of one input report (buttons
 // from several, each its own bits of the 32-bit mask); keys are names, each given once.
@@ -148,8 +149,9 @@ enum class ParseResult : std::uint8_t { Ok, Short, Malformed };
                                        ReportValues& out) noexcept;
 
 // Encodes a force [N] into the profile's output report; returns its length (0: no output report).
-// A linkage device's report carries motor currents, for the arm at joint angles `joints` [rad].
-std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, std::span<std::uint8_t> report,
-                         const Eigen::Vector3d& joints = Eigen::Vector3d::Zero()) noexcept;
+// A linkage device's report carries motor currents, for the arm at joint angles `joints` [rad]
+// (the last ones the device reported); other devices ignore them.
+std::size_t encode_force(const DeviceProfile& p, const Eigen::Vector3d& force, const Eigen::Vector3d& joints,
+                         std::span<std::uint8_t> report) noexcept;
 
 }  // namespace scalpel

@@ -1,6 +1,5 @@
 #include "devices/linkage.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 namespace scalpel {
@@ -27,11 +26,13 @@ Eigen::Vector3d Linkage::currents(const Eigen::Vector3d& q, const Eigen::Vector3
   // 1/ratio times as far as its joint, so it needs ratio times the torque.
   const Eigen::Vector3d tau = jacobian(q).transpose() * force;
   Eigen::Vector3d amps;
-  for (int i = 0; i < 3; ++i) {
-    const double a =
-        tau[i] * ratio[static_cast<std::size_t>(i)] / torque_constant[static_cast<std::size_t>(i)];
-    amps[i] = std::isfinite(a) ? std::clamp(a, -max_current, max_current) : 0.0;
-  }
+  for (int i = 0; i < 3; ++i)
+    amps[i] = tau[i] * ratio[static_cast<std::size_t>(i)] / torque_constant[static_cast<std::size_t>(i)];
+  if (!amps.allFinite()) return Eigen::Vector3d::Zero();
+  // Over the limit, all three scale down together: the joint torques, and so the force, keep their
+  // direction (clamping each alone would turn the force).
+  const double peak = amps.cwiseAbs().maxCoeff();
+  if (peak > max_current) amps *= max_current / peak;
   return amps;
 }
 

@@ -22,14 +22,15 @@ struct Linkage {
   // the joint's torque times this.
   std::array<double, 3> ratio{1.0, 1.0, 1.0};
   std::array<double, 3> torque_constant{1.0, 1.0, 1.0};  // [N m / A] of each motor
-  double max_current = 0.0;                              // [A] a command is clamped to it
+  double max_current = 0.0;                              // [A] no motor is driven harder
 
   // The tip's position [m] at joint angles q [rad].
   [[nodiscard]] Eigen::Vector3d position(const Eigen::Vector3d& q) const noexcept;
   // d position / d q.
   [[nodiscard]] Eigen::Matrix3d jacobian(const Eigen::Vector3d& q) const noexcept;
-  // The motor currents [A] that put force [N] on the tip at joint angles q (static: J^T f), each
-  // clamped to max_current.
+  // The motor currents [A] that put force [N] on the tip at joint angles q (static: J^T f), scaled
+  // down together where one would pass max_current, so the force keeps its direction; none for a
+  // force that is not finite.
   [[nodiscard]] Eigen::Vector3d currents(const Eigen::Vector3d& q,
                                          const Eigen::Vector3d& force) const noexcept;
 };

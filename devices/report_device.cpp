@@ -35,6 +35,7 @@ void ReportDevice::apply(const ReportValues& v) noexcept {
     if (v.has[i]) axis_[i] = v.axis[i];
   buttons_ = (buttons_ & ~v.buttons_mask) | (v.buttons & v.buttons_mask);
   fresh_ = true;
+  has_joints_ |= v.has[static_cast<std::size_t>(Axis::JA)];
 }
 
 void ReportDevice::update_pose(double t) noexcept {
@@ -93,6 +94,7 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
     AtomicDeviceCounters::bump(counters_.reconnects);
     axis_.fill(0.0);  // rates from before the unplug are stale
     fresh_ = false;
+    has_joints_ = false;
     reindex_ = profile_.motion != Motion::Rate && has_pose_;
     has_last_t_ = false;
     state = Connected;
@@ -139,7 +141,9 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
 void ReportDevice::write_force(const Eigen::Vector3d& force) noexcept {
   if (!profile_.output_report || state_.load(std::memory_order_acquire) != Connected) return;
   const auto ax = [&](Axis a) { return axis_[static_cast<std::size_t>(a)]; };
-  const std::size_t n = encode_force(profile_, force, out_, {ax(Axis::JA), ax(Axis::JB), ax(Axis::JC)});
+  // Motor currents for an arm whose angles are not known yet would push it the wrong way: none.
+  const Eigen::Vector3d f = profile_.linkage && !has_joints_ ? Eigen::Vector3d::Zero() : force;
+  const std::size_t n = encode_force(profile_, f, {ax(Axis::JA), ax(Axis::JB), ax(Axis::JC)}, out_);
   if (n > 0) (void)transport_->write(std::span<const std::uint8_t>(out_.data(), n));
 }
 

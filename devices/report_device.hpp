@@ -5,10 +5,10 @@
 //
 // Unplugging freezes the tool at its last good pose (status Disconnected, the simulation goes on);
 // maintain() reopens the device and the tool resumes from where it froze: a rate device continues
-// integrating from there, an absolute device is re-indexed (an offset moves its first pose after the
-// re-plug onto the frozen one, as a clutch does), so re-plugging never makes the blade jump.
-// Short and malformed reports are counted and skipped; a non-finite, non-unit or out-of-workspace
-// pose is counted and rejected (the previous pose is kept; a rate device is clamped to its workspace).
+// integrating from there, an absolute or linkage device is re-indexed (an offset moves its first pose after
+// the re-plug onto the frozen one, as a clutch does), so re-plugging never makes the blade jump. Short and
+// malformed reports are counted and skipped; a non-finite, non-unit or out-of-workspace pose is counted and
+// rejected (the previous pose is kept; a rate device is clamped to its workspace).
 #pragma once
 
 #include <array>
@@ -71,9 +71,10 @@ class ReportDevice final : public Device {
   Eigen::Quaterniond orientation_ = Eigen::Quaterniond::Identity();
   Eigen::Vector3d offset_position_ = Eigen::Vector3d::Zero();  // [m] re-indexing (absolute)
   Eigen::Quaterniond offset_orientation_ = Eigen::Quaterniond::Identity();
-  bool has_pose_ = false;  // an absolute pose was accepted
-  bool reindex_ = false;   // the next absolute pose re-indexes onto the frozen one
-  bool fresh_ = false;     // a report arrived since the last pose update
+  bool has_pose_ = false;    // an absolute pose was accepted
+  bool reindex_ = false;     // the next absolute pose re-indexes onto the frozen one
+  bool fresh_ = false;       // a report arrived since the last pose update
+  bool has_joints_ = false;  // a linkage device's joint angles arrived since the (re)connect
   double last_t_ = 0.0;
   bool has_last_t_ = false;
   std::array<std::uint8_t, kMaxReport> in_{};

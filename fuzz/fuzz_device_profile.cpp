@@ -33,7 +33,10 @@ void decode_all(const scalpel::DeviceProfile& p) {
       Eigen::Vector3d(kHuge, -kHuge, std::numeric_limits<double>::quiet_NaN()),
       Eigen::Vector3d::Constant(-p.max_force)};
   std::vector<std::uint8_t> out(p.output_report ? p.output_report->length : 1);
-  for (const Eigen::Vector3d& f : forces) (void)scalpel::encode_force(p, f, out);
+  // Joint angles for a linkage profile: at rest, and turned far (the arm's trigonometry).
+  const std::array<Eigen::Vector3d, 2> joints = {Eigen::Vector3d::Zero(), Eigen::Vector3d(40.0, -3.0, 1e6)};
+  for (const Eigen::Vector3d& q : joints)
+    for (const Eigen::Vector3d& f : forces) (void)scalpel::encode_force(p, f, q, out);
 }
 
 }  // namespace

@@ -105,10 +105,10 @@ TEST_CASE("generic stylus reports parse into a pose and forces encode into its o
   CHECK(parse_report(p, r.at("short"), v) == ParseResult::Short);
 
   std::array<std::uint8_t, 16> out{};
-  REQUIRE(encode_force(p, Eigen::Vector3d(1.0, -0.5, 0.25), out) == 7);
+  REQUIRE(encode_force(p, Eigen::Vector3d(1.0, -0.5, 0.25), Eigen::Vector3d::Zero(), out) == 7);
   CHECK(std::vector<std::uint8_t>(out.begin(), out.begin() + 7) == r.at("force_out"));
   // Saturation at the type's range, not wrap-around.
-  REQUIRE(encode_force(p, Eigen::Vector3d(100.0, 0, 0), out) == 7);
+  REQUIRE(encode_force(p, Eigen::Vector3d(100.0, 0, 0), Eigen::Vector3d::Zero(), out) == 7);
   CHECK(out[1] == 0xff);
   CHECK(out[2] == 0x7f);
 }

@@ -79,9 +79,16 @@ TEST_CASE("linkage: the Jacobian is the derivative of the position, currents do 
                   l.ratio[static_cast<std::size_t>(k)];
   const double force_work = f.dot(l.position(q + dq) - l.position(q));
   CHECK(motor_work == doctest::Approx(force_work).epsilon(1e-5));
-  // A force the motors cannot give is clamped to their current, per motor.
-  const Eigen::Vector3d big = l.currents(q, Eigen::Vector3d(0, 0, -50));
-  CHECK(big.cwiseAbs().maxCoeff() == l.max_current);
+  // A force the motors cannot give: all three currents scale down together, so the joint torques
+  // (and the force) keep their direction.
+  const Eigen::Vector3d strong(0, 20, -50);
+  const Eigen::Vector3d big = l.currents(q, strong);
+  CHECK(big.cwiseAbs().maxCoeff() == doctest::Approx(l.max_current));
+  Eigen::Vector3d tau;
+  for (int k = 0; k < 3; ++k)
+    tau[k] = big[k] * l.torque_constant[static_cast<std::size_t>(k)] / l.ratio[static_cast<std::size_t>(k)];
+  const Eigen::Vector3d wanted = l.jacobian(q).transpose() * strong;
+  CHECK(tau.normalized().dot(wanted.normalized()) == doctest::Approx(1.0).epsilon(1e-12));
   CHECK(l.currents(q, Eigen::Vector3d(NAN, 0, 0)).isZero());
 }
 
@@ -102,8 +109,14 @@ TEST_CASE("linkage: WoodenHaptics reports give the tip's position and take motor
 
   auto wire = std::make_shared<test::FakeWire>();
   ReportDevice device(woodenhaptics(), std::make_unique<test::FakeTransport>(wire));
-  CHECK(device.max_force() == 5.0);
+  CHECK(device.max_force() == 2.5);
   ToolSample s;
+  // Before the arm has said where it is, its motors get nothing.
+  REQUIRE(device.read(0.0005, s) == DeviceStatus::Ok);
+  device.write_force(Eigen::Vector3d(1.0, -0.5, 0.25));
+  REQUIRE(wire->written.size() == 1);
+  CHECK(wire->written[0] == std::vector<std::uint8_t>(14, 0));
+  wire->written.clear();
   wire->inbox.push_back(r.at("general"));
   REQUIRE(device.read(0.001, s) == DeviceStatus::Ok);
   // The force at that pose, as currents.
@@ -145,9 +158,26 @@ input_reports:
   zero_arm.replace(zero_arm.find("[0.1, 0.2, 0.2]"), 15, "[0.1, 0.0, 0.2]");
   CHECK(error_of(zero_arm).find("bad.yaml:6:") == 0);
   CHECK(error_of(zero_arm).find("linkage.lengths: arm and forearm must be > 0") != std::string::npos);
+  std::string with_x = arm;
+  with_x.replace(with_x.find("axis: jc"), 8, "axis: x");
+  CHECK(error_of(with_x).find("input_reports: a linkage device reads joint angles") != std::string::npos);
   std::string no_jc = arm;
-  no_jc.replace(no_jc.find("axis: jc"), 8, "axis: x");
-  CHECK(error_of(no_jc).find("input_reports: a linkage device reads joint angles") != std::string::npos);
+  no_jc.erase(no_jc.find("      - {axis: jc"));
+  CHECK(error_of(no_jc).find("input_reports: a linkage device needs all of ja, jb, jc") != std::string::npos);
+  const auto linkage_with = [&](const std::string& from, const std::string& to) {
+    std::string t = arm;
+    t.replace(t.find(from), from.size(), to);
+    return error_of(t);
+  };
+  CHECK(linkage_with("ratio: [0.1, 0.1, 0.1]", "ratio: [0.1, 0, 0.1]").find("linkage.ratio: must not be 0") !=
+        std::string::npos);
+  CHECK(linkage_with("ratio: [0.1, 0.1, 0.1]", "ratio: [0.1, -0.1, 0.1]")
+            .find("linkage.ratio: the sign of joint b's ratio differs from that of its field's scale") !=
+        std::string::npos);
+  CHECK(linkage_with("[0.03, 0.03, 0.03]", "[0.03, 0.03, -0.03]")
+            .find("linkage.torque_constant: must be > 0") != std::string::npos);
+  CHECK(linkage_with("max_current: 2", "max_current: 0").find("linkage.max_current: must be > 0") !=
+        std::string::npos);
   std::string force_out = arm + R"(output_report:
   length: 6
   fields: [{axis: fx, offset: 0, type: i16le}, {axis: fy, offset: 2, type: i16le}, {axis: fz, offset: 4, type: i16le}]
@@ -159,4 +189,32 @@ max_force_rate: 100
   std::string absolute = arm;
   absolute.replace(absolute.find("motion: linkage"), 15, "motion: absolute");
   CHECK(error_of(absolute).find("joint angles ja, jb, jc are for motion: linkage") != std::string::npos);
+  std::string two_currents = arm + R"(output_report:
+  length: 6
+  fields: [{axis: ia, offset: 0, type: i16le}, {axis: ib, offset: 2, type: i16le}]
+max_force: 3
+max_force_rate: 100
+)";
+  CHECK(error_of(two_currents).find("output_report.fields: a linkage device needs all of ia, ib, ic") !=
+        std::string::npos);
+  // An absolute stylus with a linkage section, or with motor currents.
+  std::string stylus = absolute;
+  for (const char* j : {"ja", "jb", "jc"})
+    stylus.replace(stylus.find(std::string("axis: ") + j), 8, "axis: x");
+  stylus.replace(stylus.find("axis: x, offset: 2"), 7, "axis: y");
+  stylus.replace(stylus.find("axis: x, offset: 4"), 7, "axis: z");
+  CHECK(error_of(stylus).find("linkage: only for motion: linkage") != std::string::npos);
+  std::string stylus_currents = stylus;
+  stylus_currents.erase(stylus_currents.find("linkage: {"),
+                        stylus_currents.find("input_reports") - stylus_currents.find("linkage: {"));
+  CHECK(error_of(stylus_currents) == "no error");
+  stylus_currents += R"(output_report:
+  length: 6
+  fields: [{axis: ia, offset: 0, type: i16le}, {axis: ib, offset: 2, type: i16le}, {axis: ic, offset: 4, type: i16le}]
+max_force: 3
+max_force_rate: 100
+)";
+  CHECK(error_of(stylus_currents)
+            .find("output_report.fields: motor currents ia, ib, ic are for motion: linkage") !=
+        std::string::npos);
 }
