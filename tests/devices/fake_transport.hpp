@@ -1,5 +1,6 @@
 // A scripted ReportTransport for tests: reports queued by the test, an unplug switch, and a record
-// of what was written. Single-threaded use.
+// of what was written. Single-threaded use. Beside it, what device tests read: named raw reports
+// from a file, and the error a profile's text gives.
 #pragma once
 
 #include <cstring>
@@ -12,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "base/input_error.hpp"
+#include "devices/device_profile.hpp"
 #include "devices/report_transport.hpp"
 
 namespace scalpel::test {
@@ -70,6 +73,16 @@ inline std::map<std::string, std::vector<std::uint8_t>> load_reports(const std::
     out[line.substr(0, colon)] = bytes;
   }
   return out;
+}
+
+// The error a profile's text gives, read as "bad.yaml"; "no error" if it reads.
+inline std::string profile_error(const std::string& text) {
+  try {
+    (void)parse_device_profile(text, "bad.yaml");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
 }
 
 }  // namespace scalpel::test

@@ -123,45 +123,31 @@ TEST_CASE("non-finite float fields make a report malformed") {
   CHECK(parse_report(p, rep, v) == ParseResult::Malformed);
 }
 
-namespace {
-
-// The error a profile's text gives, read as "bad.yaml"; "no error" if it reads.
-std::string error_of(const std::string& text) {
-  try {
-    (void)parse_device_profile(text, "bad.yaml");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "no error";
-}
-
-}  // namespace
-
 TEST_CASE("profile errors name the file, line and key") {
   std::string t = kMinimal;
-  CHECK(error_of(t + "colour: red\n") == "bad.yaml:13:1: colour: unknown key");
+  CHECK(test::profile_error(t + "colour: red\n") == "bad.yaml:13:1: colour: unknown key");
   std::string wrong_type = t;
   wrong_type.replace(wrong_type.find("type: f32le}\n      - {axis: y"), 11, "type: f64le");
-  CHECK(error_of(wrong_type).find("bad.yaml:10:") == 0);
-  CHECK(error_of(wrong_type).find("input_reports[0].fields[0].type: unknown type 'f64le'") !=
+  CHECK(test::profile_error(wrong_type).find("bad.yaml:10:") == 0);
+  CHECK(test::profile_error(wrong_type).find("input_reports[0].fields[0].type: unknown type 'f64le'") !=
         std::string::npos);
   std::string past_end = t;
   past_end.replace(past_end.find("offset: 9"), 9, "offset: 11");
-  CHECK(error_of(past_end).find("input_reports[0].fields[2].offset: field ends past the report length 13") !=
-        std::string::npos);
+  CHECK(test::profile_error(past_end).find(
+            "input_reports[0].fields[2].offset: field ends past the report length 13") != std::string::npos);
   std::string bad_vid = t;
   bad_vid.replace(bad_vid.find("0x1234"), 6, "0x12345");
-  CHECK(error_of(bad_vid).find("bad.yaml:3:") == 0);
-  CHECK(error_of(bad_vid).find("match[0].vendor_id: out of range") != std::string::npos);
+  CHECK(test::profile_error(bad_vid).find("bad.yaml:3:") == 0);
+  CHECK(test::profile_error(bad_vid).find("match[0].vendor_id: out of range") != std::string::npos);
   std::string no_motion = t;
   no_motion.replace(no_motion.find("motion: absolute\n"), 17, "");
-  CHECK(error_of(no_motion).find("motion: missing") != std::string::npos);
+  CHECK(test::profile_error(no_motion).find("motion: missing") != std::string::npos);
   std::string signed_buttons = t;
   signed_buttons.replace(signed_buttons.find("{axis: z, offset: 9, type: f32le}"), 33,
                          "{axis: buttons, offset: 9, type: i8}");
-  CHECK(error_of(signed_buttons).find("bad.yaml:12:9: input_reports[0].fields[2]: buttons are an unsigned") ==
-        0);
-  CHECK(error_of("name: [unclosed").find("bad.yaml:") == 0);
+  CHECK(test::profile_error(signed_buttons)
+            .find("bad.yaml:12:9: input_reports[0].fields[2]: buttons are an unsigned") == 0);
+  CHECK(test::profile_error("name: [unclosed").find("bad.yaml:") == 0);
   CHECK_THROWS_AS((void)load_device_profile("/nonexistent/profile.yaml"), InputError);
 }
 
@@ -173,25 +159,25 @@ TEST_CASE("a profile that maps a key, a byte, an axis or a button twice is refus
     return s;
   };
   // yaml-cpp keeps both entries of a repeated key and reads the first: the second was ignored.
-  CHECK(error_of(t + "name: other\n") == "bad.yaml:13:1: name: duplicate key");
-  CHECK(error_of(with("{axis: y, offset: 5,", "{axis: y, offset: 5, offset: 6,")) ==
+  CHECK(test::profile_error(t + "name: other\n") == "bad.yaml:13:1: name: duplicate key");
+  CHECK(test::profile_error(with("{axis: y, offset: 5,", "{axis: y, offset: 5, offset: 6,")) ==
         "bad.yaml:11:30: input_reports[0].fields[1].offset: duplicate key");
   // A key that is a list or a mapping threw yaml-cpp's conversion error: exit 3, no file named.
-  CHECK(error_of("? [vendor_id, product_id]\n: 1\n") ==
+  CHECK(test::profile_error("? [vendor_id, product_id]\n: 1\n") ==
         "bad.yaml:1:3: expected a key name, found a list or mapping");
-  CHECK(error_of(with("workspace: {min:", "workspace: {{a: 1}: 2, min:")) ==
+  CHECK(test::profile_error(with("workspace: {min:", "workspace: {{a: 1}: 2, min:")) ==
         "bad.yaml:5:13: workspace: expected a key name, found a list or mapping");
   // Two fields on one byte decoded it twice.
-  CHECK(error_of(with("{axis: z, offset: 9, type: f32le}", "{axis: z, offset: 7, type: f32le}")) ==
+  CHECK(test::profile_error(with("{axis: z, offset: 9, type: f32le}", "{axis: z, offset: 7, type: f32le}")) ==
         "bad.yaml:12:27: input_reports[0].fields[2].offset: bytes 7-10 overlap those of "
         "input_reports[0].fields[1] (bytes 5-8)");
   // An axis mapped twice took whichever report came last.
-  CHECK(error_of(with("{axis: z,", "{axis: x,")) ==
+  CHECK(test::profile_error(with("{axis: z,", "{axis: x,")) ==
         "bad.yaml:12:16: input_reports[0].fields[2].axis: axis 'x' is already mapped by "
         "input_reports[0].fields[0]");
   const std::string two_reports =
       t + "  - id: 2\n    length: 5\n    fields: [{axis: y, offset: 1, type: f32le}]\n";
-  CHECK(error_of(two_reports) ==
+  CHECK(test::profile_error(two_reports) ==
         "bad.yaml:15:21: input_reports[1].fields[0].axis: axis 'y' is already mapped by "
         "input_reports[0].fields[1]");
   const std::string forces = t +
@@ -199,7 +185,7 @@ TEST_CASE("a profile that maps a key, a byte, an axis or a button twice is refus
                              "    - {axis: fx, offset: 1, type: i16le}\n"
                              "    - {axis: fx, offset: 3, type: i16le}\n"
                              "max_force: 1\nmax_force_rate: 1\n";
-  CHECK(error_of(forces) ==
+  CHECK(test::profile_error(forces) ==
         "bad.yaml:18:14: output_report.fields[1].axis: axis 'fx' is already mapped by "
         "output_report.fields[0]");
   // Buttons may be spread over fields, each its own bits of the 32-bit mask.
@@ -211,9 +197,9 @@ TEST_CASE("a profile that maps a key, a byte, an axis or a button twice is refus
       buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 16}\n", "good.yaml");
   REQUIRE(p.input_reports.size() == 2);
   CHECK(p.input_reports[1].fields.size() == 3);
-  CHECK(error_of(buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 4}\n") ==
+  CHECK(test::profile_error(buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 4}\n") ==
         "bad.yaml:18:53: input_reports[1].fields[2].shift: buttons bits overlap those of "
         "input_reports[1].fields[0]");
-  CHECK(error_of(buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 28}\n") ==
+  CHECK(test::profile_error(buttons + "      - {axis: buttons, offset: 3, type: u8, shift: 28}\n") ==
         "bad.yaml:18:53: input_reports[1].fields[2].shift: bits 28-35 of the buttons go past bit 31");
 }

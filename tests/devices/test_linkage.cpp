@@ -31,15 +31,6 @@ Eigen::Vector3d position_after(const std::vector<std::uint8_t>& report) {
   return s.position;
 }
 
-std::string error_of(const std::string& text) {
-  try {
-    (void)parse_device_profile(text, "bad.yaml");
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "no error";
-}
-
 }  // namespace
 
 TEST_CASE("linkage: the tip's position follows the arm's geometry") {
@@ -149,25 +140,28 @@ input_reports:
       - {axis: jb, offset: 2, type: i16le, scale: 1.0e-3}
       - {axis: jc, offset: 4, type: i16le, scale: 1.0e-3}
 )";
-  CHECK(error_of(arm) == "no error");
+  CHECK(test::profile_error(arm) == "no error");
   std::string no_linkage = arm;
   no_linkage.erase(no_linkage.find("linkage: {"),
                    no_linkage.find("input_reports") - no_linkage.find("linkage: {"));
-  CHECK(error_of(no_linkage).find("linkage: missing") != std::string::npos);
+  CHECK(test::profile_error(no_linkage).find("linkage: missing") != std::string::npos);
   std::string zero_arm = arm;
   zero_arm.replace(zero_arm.find("[0.1, 0.2, 0.2]"), 15, "[0.1, 0.0, 0.2]");
-  CHECK(error_of(zero_arm).find("bad.yaml:6:") == 0);
-  CHECK(error_of(zero_arm).find("linkage.lengths: arm and forearm must be > 0") != std::string::npos);
+  CHECK(test::profile_error(zero_arm).find("bad.yaml:6:") == 0);
+  CHECK(test::profile_error(zero_arm).find("linkage.lengths: arm and forearm must be > 0") !=
+        std::string::npos);
   std::string with_x = arm;
   with_x.replace(with_x.find("axis: jc"), 8, "axis: x");
-  CHECK(error_of(with_x).find("input_reports: a linkage device reads joint angles") != std::string::npos);
+  CHECK(test::profile_error(with_x).find("input_reports: a linkage device reads joint angles") !=
+        std::string::npos);
   std::string no_jc = arm;
   no_jc.erase(no_jc.find("      - {axis: jc"));
-  CHECK(error_of(no_jc).find("input_reports: a linkage device needs all of ja, jb, jc") != std::string::npos);
+  CHECK(test::profile_error(no_jc).find("input_reports: a linkage device needs all of ja, jb, jc") !=
+        std::string::npos);
   const auto linkage_with = [&](const std::string& from, const std::string& to) {
     std::string t = arm;
     t.replace(t.find(from), from.size(), to);
-    return error_of(t);
+    return test::profile_error(t);
   };
   CHECK(linkage_with("ratio: [0.1, 0.1, 0.1]", "ratio: [0.1, 0, 0.1]").find("linkage.ratio: must not be 0") !=
         std::string::npos);
@@ -184,37 +178,38 @@ input_reports:
 max_force: 3
 max_force_rate: 100
 )";
-  CHECK(error_of(force_out).find("output_report.fields: a linkage device takes motor currents ia, ib, ic") !=
-        std::string::npos);
+  CHECK(test::profile_error(force_out).find(
+            "output_report.fields: a linkage device takes motor currents ia, ib, ic") != std::string::npos);
   std::string absolute = arm;
   absolute.replace(absolute.find("motion: linkage"), 15, "motion: absolute");
-  CHECK(error_of(absolute).find("joint angles ja, jb, jc are for motion: linkage") != std::string::npos);
+  CHECK(test::profile_error(absolute).find("joint angles ja, jb, jc are for motion: linkage") !=
+        std::string::npos);
   std::string two_currents = arm + R"(output_report:
   length: 6
   fields: [{axis: ia, offset: 0, type: i16le}, {axis: ib, offset: 2, type: i16le}]
 max_force: 3
 max_force_rate: 100
 )";
-  CHECK(error_of(two_currents).find("output_report.fields: a linkage device needs all of ia, ib, ic") !=
-        std::string::npos);
+  CHECK(test::profile_error(two_currents)
+            .find("output_report.fields: a linkage device needs all of ia, ib, ic") != std::string::npos);
   // An absolute stylus with a linkage section, or with motor currents.
   std::string stylus = absolute;
   for (const char* j : {"ja", "jb", "jc"})
     stylus.replace(stylus.find(std::string("axis: ") + j), 8, "axis: x");
   stylus.replace(stylus.find("axis: x, offset: 2"), 7, "axis: y");
   stylus.replace(stylus.find("axis: x, offset: 4"), 7, "axis: z");
-  CHECK(error_of(stylus).find("linkage: only for motion: linkage") != std::string::npos);
+  CHECK(test::profile_error(stylus).find("linkage: only for motion: linkage") != std::string::npos);
   std::string stylus_currents = stylus;
   stylus_currents.erase(stylus_currents.find("linkage: {"),
                         stylus_currents.find("input_reports") - stylus_currents.find("linkage: {"));
-  CHECK(error_of(stylus_currents) == "no error");
+  CHECK(test::profile_error(stylus_currents) == "no error");
   stylus_currents += R"(output_report:
   length: 6
   fields: [{axis: ia, offset: 0, type: i16le}, {axis: ib, offset: 2, type: i16le}, {axis: ic, offset: 4, type: i16le}]
 max_force: 3
 max_force_rate: 100
 )";
-  CHECK(error_of(stylus_currents)
+  CHECK(test::profile_error(stylus_currents)
             .find("output_report.fields: motor currents ia, ib, ic are for motion: linkage") !=
         std::string::npos);
 }
