@@ -549,9 +549,7 @@ CutStepStats CutEngine::impose(std::uint32_t t, const CutTopology& local, bool c
   const auto& v = units_.mesh().tet_vertex_indices(t);
   std::set<Key3> faces;
   auto make = [&](CutNode::Kind kind, const Key3& k, const Vec3& w) {
-    const std::uint32_t known = kind == CutNode::Kind::Edge  ? cut_nodes_.edge(k[0], k[1])
-                                : kind == CutNode::Kind::Mid ? cut_nodes_.mid(k)
-                                                             : cut_nodes_.entry(k);
+    const std::uint32_t known = cut_nodes_.find(kind, k);
     return known != kInvalidIndex ? known : cut_nodes_.add(kind, k, w, stroke_);
   };
   for (int e = 0; e < 6; ++e) {

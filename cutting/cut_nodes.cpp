@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 #include "cutting/cut_engine_internal.hpp"
 
@@ -21,22 +22,29 @@ std::uint32_t CutNode::group(std::uint32_t coarse, std::uint32_t sub) const {
 }
 
 std::uint32_t CutNodes::edge(std::uint32_t a, std::uint32_t b) const {
-  const auto it = edges_.find(edge_key(a, b));
-  return it == edges_.end() ? kInvalidIndex : it->second;
+  return find(CutNodeKind::Edge, edge_key(a, b));
 }
 
 std::uint32_t CutNodes::mid(const Key& face) const {
-  const auto it = mids_.find(face);
-  return it == mids_.end() ? kInvalidIndex : it->second;
+  return find(CutNodeKind::Mid, face);
 }
 
 std::uint32_t CutNodes::entry(const Key& face) const {
-  const auto it = entries_.find(face);
-  return it == entries_.end() ? kInvalidIndex : it->second;
+  return find(CutNodeKind::Entry, face);
+}
+
+const std::map<CutNodes::Key, std::uint32_t>& CutNodes::map_of(CutNodeKind kind) const {
+  return kind == CutNodeKind::Edge ? edges_ : kind == CutNodeKind::Mid ? mids_ : entries_;
+}
+
+std::uint32_t CutNodes::find(CutNodeKind kind, const Key& key) const {
+  const auto& map = map_of(kind);
+  const auto it = map.find(key);
+  return it == map.end() ? kInvalidIndex : it->second;
 }
 
 std::map<CutNodes::Key, std::uint32_t>& CutNodes::map_of(CutNodeKind kind) {
-  return kind == CutNodeKind::Edge ? edges_ : kind == CutNodeKind::Mid ? mids_ : entries_;
+  return const_cast<std::map<Key, std::uint32_t>&>(std::as_const(*this).map_of(kind));
 }
 
 // Places every copy of a cut node at its weights over the coarse nodes (docs/architecture.md: the

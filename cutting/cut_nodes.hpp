@@ -76,6 +76,8 @@ class CutNodes {
   [[nodiscard]] std::uint32_t mid(const Key& face) const;
   [[nodiscard]] std::uint32_t entry(const Key& face) const;
   [[nodiscard]] bool face_has_edge_node(const Key& face) const;
+  // The cut node of `kind` on `key` (an edge's key {a, b, kInvalidIndex}), or kInvalidIndex.
+  [[nodiscard]] std::uint32_t find(CutNodeKind kind, const Key& key) const;
   // Whether cut node `id` can open: entry nodes lie on the tip's path, where the cut surface ends,
   // and registered edge nodes were crossed only by the blunt side; neither ever separates.
   [[nodiscard]] bool opens(std::uint32_t id) const;
@@ -129,6 +131,7 @@ class CutNodes {
  private:
   [[nodiscard]] std::optional<Vec3> current_position_of(NodeId c, const Vec3& rest) const;
   [[nodiscard]] std::map<Key, std::uint32_t>& map_of(CutNodeKind kind);
+  [[nodiscard]] const std::map<Key, std::uint32_t>& map_of(CutNodeKind kind) const;
 
   TetMesh& mesh_;
   const TetMesh& coarse_;

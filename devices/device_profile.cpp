@@ -325,29 +325,39 @@ std::size_t DeviceProfile::max_input_length() const {
 
 namespace {
 
+// The value axes (x..jc) the input reports map.
+struct MappedAxes {
+  std::array<bool, kValueAxes> on{};
+  explicit MappedAxes(const DeviceProfile& p) {
+    for (const ReportLayout& r : p.input_reports)
+      for (const ReportField& f : r.fields)
+        if (f.axis < Axis::Buttons) on[static_cast<std::size_t>(f.axis)] = true;
+  }
+  // Whether any, or all, of the axes lo..hi are mapped.
+  [[nodiscard]] bool any(Axis lo, Axis hi) const { return count(lo, hi) > 0; }
+  [[nodiscard]] bool all(Axis lo, Axis hi) const {
+    return count(lo, hi) == static_cast<std::size_t>(hi) - static_cast<std::size_t>(lo) + 1;
+  }
+  [[nodiscard]] std::size_t count(Axis lo, Axis hi) const {
+    return static_cast<std::size_t>(std::count(on.begin() + static_cast<std::ptrdiff_t>(lo),
+                                               on.begin() + static_cast<std::ptrdiff_t>(hi) + 1, true));
+  }
+};
+
 // A linkage device reads its joint angles (ja, jb, jc) and nothing else of the pose; other devices
 // read no joint angles.
-void check_linkage_axes(const Ctx& c, const YAML::Node& root, const DeviceProfile& p) {
-  std::array<bool, kValueAxes> mapped{};
-  for (const ReportLayout& r : p.input_reports)
-    for (const ReportField& f : r.fields)
-      if (f.axis < Axis::Buttons) mapped[static_cast<std::size_t>(f.axis)] = true;
-  const auto any = [&](Axis lo, Axis hi) {
-    for (auto a = static_cast<std::size_t>(lo); a <= static_cast<std::size_t>(hi); ++a)
-      if (mapped[a]) return true;
-    return false;
-  };
+void check_linkage_axes(const Ctx& c, const YAML::Node& root, const DeviceProfile& p,
+                        const MappedAxes& mapped) {
   const YAML::Node in = root["input_reports"];
   if (p.motion != Motion::Linkage) {
-    if (any(Axis::JA, Axis::JC))
+    if (mapped.any(Axis::JA, Axis::JC))
       c.fail(in, "input_reports", "joint angles ja, jb, jc are for motion: linkage");
     if (root["linkage"]) c.fail(root["linkage"], "linkage", "only for motion: linkage");
     return;
   }
-  if (any(Axis::X, Axis::QZ))
+  if (mapped.any(Axis::X, Axis::QZ))
     c.fail(in, "input_reports", "a linkage device reads joint angles (ja, jb, jc), not x..qz");
-  if (!mapped[static_cast<std::size_t>(Axis::JA)] || !mapped[static_cast<std::size_t>(Axis::JB)] ||
-      !mapped[static_cast<std::size_t>(Axis::JC)])
+  if (!mapped.all(Axis::JA, Axis::JC))
     c.fail(in, "input_reports", "a linkage device needs all of ja, jb, jc");
 }
 
@@ -445,26 +455,14 @@ DeviceProfile parse_device_profile(const std::string& yaml_text, const std::stri
     if (r.id && !ids.insert(*r.id).second) c.fail(in[i]["id"], w + ".id", "duplicate report id");
     p.input_reports.push_back(std::move(r));
   }
-  bool has_q = false, all_q = true, has_rot = false;
-  for (const ReportLayout& r : p.input_reports)
-    for (const ReportField& f : r.fields) {
-      const bool q = f.axis >= Axis::QW && f.axis <= Axis::QZ;
-      has_q |= q;
-      has_rot |= f.axis >= Axis::RX && f.axis <= Axis::RZ;
-    }
-  if (has_q) {
-    for (Axis a : {Axis::QW, Axis::QX, Axis::QY, Axis::QZ}) {
-      bool found = false;
-      for (const ReportLayout& r : p.input_reports)
-        for (const ReportField& f : r.fields) found |= f.axis == a;
-      all_q &= found;
-    }
-    if (!all_q) c.fail(in, "input_reports", "an orientation needs all of qw, qx, qy, qz");
-  }
+  const MappedAxes axes(p);
+  const bool has_q = axes.any(Axis::QW, Axis::QZ);
+  if (has_q && !axes.all(Axis::QW, Axis::QZ))
+    c.fail(in, "input_reports", "an orientation needs all of qw, qx, qy, qz");
   if (p.motion == Motion::Rate && has_q) c.fail(in, "input_reports", "a rate device has no qw..qz axes");
-  if (p.motion == Motion::Absolute && has_rot)
+  if (p.motion == Motion::Absolute && axes.any(Axis::RX, Axis::RZ))
     c.fail(in, "input_reports", "an absolute device has no rx, ry, rz rate axes");
-  check_linkage_axes(c, root, p);
+  check_linkage_axes(c, root, p, axes);
 
   if (root["output_report"]) {
     std::vector<Mapped> forces;

@@ -65,9 +65,8 @@ void ReportDevice::update_pose(double t) noexcept {
   if (!fresh_) return;
   fresh_ = false;
   // A linkage device's pose is where its arm puts the tip (devices/linkage.hpp).
-  const Eigen::Vector3d raw_p = profile_.linkage
-                                    ? profile_.linkage->position({ax(Axis::JA), ax(Axis::JB), ax(Axis::JC)})
-                                    : Eigen::Vector3d(ax(Axis::X), ax(Axis::Y), ax(Axis::Z));
+  const Eigen::Vector3d raw_p = profile_.linkage ? profile_.linkage->position(joints())
+                                                 : Eigen::Vector3d(ax(Axis::X), ax(Axis::Y), ax(Axis::Z));
   Eigen::Quaterniond raw_q = Eigen::Quaterniond::Identity();
   if (has_orientation_) raw_q = Eigen::Quaterniond(ax(Axis::QW), ax(Axis::QX), ax(Axis::QY), ax(Axis::QZ));
   const double n = raw_q.norm();
@@ -140,10 +139,9 @@ DeviceStatus ReportDevice::read(double t, ToolSample& out) noexcept {
 
 void ReportDevice::write_force(const Eigen::Vector3d& force) noexcept {
   if (!profile_.output_report || state_.load(std::memory_order_acquire) != Connected) return;
-  const auto ax = [&](Axis a) { return axis_[static_cast<std::size_t>(a)]; };
   // Motor currents for an arm whose angles are not known yet would push it the wrong way: none.
   const Eigen::Vector3d f = profile_.linkage && !has_joints_ ? Eigen::Vector3d::Zero() : force;
-  const std::size_t n = encode_force(profile_, f, {ax(Axis::JA), ax(Axis::JB), ax(Axis::JC)}, out_);
+  const std::size_t n = encode_force(profile_, f, joints(), out_);
   if (n > 0) (void)transport_->write(std::span<const std::uint8_t>(out_.data(), n));
 }
 

@@ -56,6 +56,11 @@ class ReportDevice final : public Device {
 
   void apply(const ReportValues& v) noexcept;
   void update_pose(double t) noexcept;
+  // A linkage device's latest joint angles [rad].
+  [[nodiscard]] Eigen::Vector3d joints() const noexcept {
+    return {axis_[static_cast<std::size_t>(Axis::JA)], axis_[static_cast<std::size_t>(Axis::JB)],
+            axis_[static_cast<std::size_t>(Axis::JC)]};
+  }
 
   const DeviceProfile profile_;
   bool has_orientation_ = false;  // the profile has qw..qz axes
