@@ -11,6 +11,17 @@
 // The simulation sets k_c to zero while the tool is free. The sum is clamped to the device's force
 // limit and rate-limited; it is zero on a device fault, before any model, and while the
 // simulation stalls.
+//
+// Passivity (Hannaford & Ryu 2002, "Time-domain passivity control of haptic interfaces", IEEE
+// Trans. Robot. Autom. 18(1)): a wall of stiffness k sampled at period T with a zero-order hold is
+// passive only on a device whose own damping b exceeds k T / 2 (Colgate & Schenkel 1997), and the
+// local model changes at every frame. Neither is known to hold, so the renderer observes the energy
+// that has flowed from the hand into the rendered environment,
+//   E_k = - sum_{j<k} f_j . (x_{j+1} - x_j),
+// exact for forces held over each cycle, and when E_k < 0 (the environment has given back more than
+// it received) adds a damper along the velocity that dissipates -E_k over the next cycle. The
+// observer sees the force actually sent, after the limits, so whatever the limits change is
+// accounted for too.
 #pragma once
 
 #include <cstdint>
@@ -44,8 +55,9 @@ struct ForceModel {
 using ForceChannel = TripleBuffer<ForceModel>;
 
 struct ForceLimits {
-  double max_force = 0.0;       // [N] magnitude
-  double max_force_rate = 0.0;  // [N/s] magnitude of the change
+  double max_force = 0.0;         // [N] magnitude
+  double max_force_rate = 0.0;    // [N/s] magnitude of the change
+  bool passivity_control = true;  // the observer and its damper (see above); off only in tests
 };
 
 // The force rendering of one haptic cycle. Deterministic; one instance per haptic thread.
@@ -60,9 +72,16 @@ class ForceRenderer {
   void reset_motion() noexcept { has_x_ = false; }
 
   [[nodiscard]] const Eigen::Vector3d& velocity() const { return v_; }  // [m/s] filtered estimate
+  // E_k [J] of the passivity observer: the energy the hand has put into the rendered environment.
+  [[nodiscard]] double observed_energy() const { return energy_; }
+  // Cycles in which the passivity controller's damper acted.
+  [[nodiscard]] std::uint64_t damped_cycles() const { return damped_cycles_; }
 
   static constexpr double kVelocityCutoff = 50.0;  // [Hz] first-order low-pass on the velocity
   static constexpr double kCutSpeedFloor = 0.01;   // v_eps [m/s]
+  // [N s/m] The passivity controller's damper at most: 2 m / T for the lightest styli (m about
+  // 0.02-0.05 kg at the tip, T = 1 ms) is 40-100 N s/m, and a held damper must stay below it.
+  static constexpr double kMaxPassivityDamping = 20.0;
 
  private:
   ForceLimits limits_;
@@ -72,6 +91,8 @@ class ForceRenderer {
   bool has_x_ = false;
   Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d f_ = Eigen::Vector3d::Zero();  // last force sent [N]
+  double energy_ = 0.0;                          // E_k [J]
+  std::uint64_t damped_cycles_ = 0;
 };
 
 }  // namespace scalpel
