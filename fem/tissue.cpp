@@ -341,6 +341,41 @@ std::vector<Vec3> TissueModel::internal_forces() {
   return f;
 }
 
+Vec3 TissueModel::load_on_holder(std::span<const NodeId> nodes) {
+  refresh();
+  std::vector<std::uint32_t> slots, tets;
+  for (const NodeId n : nodes) slots.push_back(n.index);
+  std::sort(slots.begin(), slots.end());
+  slots.erase(std::unique(slots.begin(), slots.end()), slots.end());
+  for (const std::uint32_t i : slots)
+    for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(i))) tets.push_back(t);
+  std::sort(tets.begin(), tets.end());  // each element once, in slot order: a deterministic sum
+  tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+  const auto& pos = mesh_.positions();
+  const auto held = [&](std::uint32_t i) { return std::binary_search(slots.begin(), slots.end(), i); };
+  Vec3 f = Vec3::Zero();
+  std::array<Vec3, 4> x;
+  for (const std::uint32_t t : tets) {
+    if (t >= tet_on_.size() || !tet_on_[t]) continue;
+    for (size_t a = 0; a < 4; ++a) x[a] = pos[tet_vertices_[t][a]];
+    const Mat34* ft = nullptr;
+    CorotationalState corot;
+    MassSpringState spring;
+    if (settings_.kind == TissueKind::Corotational) {
+      Eigen::Quaterniond q = rotation_[t];  // a copy: the step's warm start stays as it was
+      evaluate_corotational(rest_[t], x, q, corot);
+      ft = &corot.force;
+    } else {
+      evaluate_mass_spring(rest_[t], x, spring);
+      ft = &spring.force;
+    }
+    for (size_t a = 0; a < 4; ++a)
+      if (held(tet_vertices_[t][a])) f += ft->col(static_cast<Eigen::Index>(a));
+  }
+  for (const std::uint32_t i : slots) f += mass_[i] * settings_.gravity + external_[i];
+  return f;
+}
+
 parallel::Team& TissueModel::team() {
   const int threads = std::max(settings_.threads, 1);
   if (!team_ || team_->size() != threads) team_ = std::make_unique<parallel::Team>(threads);

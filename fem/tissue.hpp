@@ -188,6 +188,10 @@ class TissueModel {
   [[nodiscard]] double kinetic_energy() const;
   // Internal elastic forces at the current positions, indexed by node slot [N].
   [[nodiscard]] std::vector<Vec3> internal_forces();
+  // The force `nodes` press on whatever holds them where they are (e.g. a tool they stick to), at
+  // the current positions: the sum over them of the elastic force of their elements, their weight
+  // and their external force [N]; each node counted once. Evaluates only the nodes' elements.
+  [[nodiscard]] Vec3 load_on_holder(std::span<const NodeId> nodes);
   [[nodiscard]] double mass(NodeId n) const;  // lumped [kg]
   [[nodiscard]] const TetRest& tet_rest(TetId t) const;
   [[nodiscard]] TissueSettings& settings() { return settings_; }
