@@ -172,6 +172,8 @@ class CutEngine {
   // what moved into the blade's edge (the blade's motion relative to the tissue, see the source).
   // changes() then holds what it changed. Within the stroke; not a tool sample.
   CutStepStats follow_tissue();
+  // The last sweep touched the tissue: the stroke goes on.
+  [[nodiscard]] bool in_contact() const { return in_contact_; }
 
   [[nodiscard]] const CutTotals& totals() const { return totals_; }
   // CutTotals::state_transitions by the script's labels: "A0->B0": count.

@@ -35,6 +35,8 @@ std::optional<MaterialError> validate_material(const Material& m) {
     return error("damping_stiffness", "must be non-negative and finite [s]", m.damping_stiffness);
   if (!(m.prestress > 0) || !std::isfinite(m.prestress))
     return error("prestress", "must be positive and finite [-] (1 = no prestress)", m.prestress);
+  if (!(m.puncture_force > 0) || !std::isfinite(m.puncture_force))
+    return error("puncture_force", "must be positive and finite [N]", m.puncture_force);
   return std::nullopt;
 }
 

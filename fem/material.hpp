@@ -13,6 +13,10 @@ struct Material {
   double damping_mass = 0.1;        // Rayleigh alpha [1/s]
   double damping_stiffness = 0.01;  // Rayleigh beta [s]
   double prestress = 1.0;           // lambda0 [-]: rest shape scaled by 1/lambda0
+  // [N] The force under a blade's edge or tip at which the region's surface gives way and the blade
+  // cuts in (sim/indentation.hpp); not used by the tissue solve. The default is of the order of
+  // the forces at which sharp blades and needles break through skin (docs/contact.md).
+  double puncture_force = 1.5;
 };
 
 struct Lame {
@@ -24,7 +28,8 @@ struct Lame {
 
 // A bad material value: `field` is the Material member (and scenario key) at fault.
 struct MaterialError {
-  std::string field;    // "young", "poisson", "density", "damping_mass", "damping_stiffness", "prestress"
+  std::string field;    // "young", "poisson", "density", "damping_mass", "damping_stiffness", "prestress",
+                        // "puncture_force"
   std::string message;  // e.g. "must be positive [Pa], got -5"
 };
 

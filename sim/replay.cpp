@@ -49,6 +49,27 @@ json percentiles(const std::vector<double>& v, double scale) {
   return j;
 }
 
+// The blade's presses on the surface (sim/indentation.hpp, docs/formats.md).
+json indentation_json(const Indentation& press, const Simulation& sim) {
+  json punctures = json::array();
+  for (const PunctureEvent& e : press.punctures())
+    punctures.push_back({{"t", e.t},
+                         {"touched", e.touched},
+                         {"depth", e.depth},
+                         {"force", e.force},
+                         {"threshold", e.threshold},
+                         {"sharp_load", e.sharp},
+                         {"region", e.region},
+                         {"point", {e.point.x(), e.point.y(), e.point.z()}}});
+  json error = percentiles(sim.press_model_errors(), 1.0);
+  error["frames"] = sim.press_model_errors().size();
+  return {{"presses", press.presses()},
+          {"punctures", punctures},
+          {"lifted_off", press.lifted()},
+          {"max_normal_force", press.max_normal_force()},
+          {"local_model_error", error}};
+}
+
 json mesh_json(const MeshSummary& s) {
   return {
       {"nodes", s.nodes},
@@ -474,6 +495,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
         {"force_on_tissue",
          {{"max", force_max},
           {"mean_in_contact", force_sum / std::max<double>(1.0, static_cast<double>(frames_in_contact))}}}};
+    if (const Indentation* press = sim.indentation())
+      report["tool_contact"]["indentation"] = indentation_json(*press, sim);
   }
   if (const auto score = sim.task_score()) report["task"] = task_json(*score);
   report["warnings"] = warnings;

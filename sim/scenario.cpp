@@ -177,7 +177,7 @@ void Parser::materials(const Value& v, Scenario& s) const {
   if (m.entries().empty()) fail(v, "expected at least one region");
   for (const auto& [region, rv] : m.entries()) {
     const Map r(*this, rv);
-    r.only({"young", "poisson", "density", "damping", "prestress"});
+    r.only({"young", "poisson", "density", "damping", "prestress", "puncture_force"});
     RegionMaterial rm;
     rm.region = region;
     rm.where = yaml_location(rv.key_mark);
@@ -203,6 +203,7 @@ void Parser::materials(const Value& v, Scenario& s) const {
       mat.prestress = number(*p);
       check(*p, mat.prestress >= 1.0 && mat.prestress < 2.0, "1 <= prestress < 2");
     }
+    if (const auto p = r.get("puncture_force")) mat.puncture_force = positive(*p, 1e3);  // [N]
     s.materials.push_back(rm);
   }
 }
@@ -269,8 +270,17 @@ void Parser::fixed(const Value& v, std::vector<FixedSelector>& out) const {
 
 void Parser::tool(const Value& v, ToolSettings& out) const {
   const Map m(*this, v);
-  m.only({"name", "blade", "cutting_resistance"});
+  m.only({"name", "blade", "cutting_resistance", "contact"});
   if (const auto x = m.get("name")) out.name = string(*x);
+  if (const auto x = m.get("contact")) {
+    const std::string c = string(*x);
+    if (c == "indent")
+      out.contact = ToolContactKind::Indent;
+    else if (c == "none")
+      out.contact = ToolContactKind::None;
+    else
+      fail(*x, "unknown contact '" + c + "', expected indent or none");
+  }
   if (const auto x = m.get("cutting_resistance")) {
     out.cutting_resistance = number(*x);
     check(*x, out.cutting_resistance >= 0.0 && out.cutting_resistance <= 1e5, "0 <= value <= 1e5 [N/m]");

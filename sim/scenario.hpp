@@ -71,6 +71,13 @@ struct FixedSelector {
   SourceLocation where;
 };
 
+// How the blade meets the tissue surface (docs/contact.md).
+enum class ToolContactKind {
+  None,    // it cuts whatever it meets
+  Indent,  // it presses the surface in until the force under its edge or tip passes the region's
+           // puncture_force, and cuts from then on (sim/indentation.hpp)
+};
+
 // The scalpel blade is the segment from its back point to its tip in the tool frame (docs/state_machine.md);
 // only its front (the side it moves towards) is sharp.
 struct ToolSettings {
@@ -83,6 +90,7 @@ struct ToolSettings {
   // Force per length of blade inside the tissue, against the blade's motion [N/m]: the hand feels
   // it and the tissue is dragged by it (sim/simulation.hpp).
   double cutting_resistance = 350.0;
+  ToolContactKind contact = ToolContactKind::None;
 };
 
 enum class DeviceKind { Mock, Hid, Libusb, Mouse };

@@ -88,6 +88,11 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
     tissue_->set_fixed(n);
     anchored_ = true;
   }
+  if (scenario_.tool.contact == ToolContactKind::Indent) {
+    std::vector<double> puncture;
+    for (const Material& material : tissue_->materials()) puncture.push_back(material.puncture_force);
+    indentation_ = std::make_unique<Indentation>(std::move(puncture));
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -115,13 +120,63 @@ BladePose Simulation::blade(const ToolSample& s) const {
           position + orientation * scenario_.tool.blade_tip, edge};
 }
 
+std::optional<SurfaceHit> Simulation::entry(const BladePose& before, const BladePose& now) const {
+  const Vec3 lo = now.tip.cwiseMin(now.back).cwiseMin(before.tip).cwiseMin(before.back);
+  const Vec3 hi = now.tip.cwiseMax(now.back).cwiseMax(before.tip).cwiseMax(before.back);
+  if (!((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)) return std::nullopt;
+  const double length = (now.tip - now.back).norm();
+  const int points = std::clamp(static_cast<int>(std::ceil(length / kTouchSpacing)), 1, 64);
+  for (int k = 0; k <= points; ++k) {
+    const double u = static_cast<double>(k) / points;  // from the tip
+    const Vec3 from = before.tip + u * (before.back - before.tip), to = now.tip + u * (now.back - now.tip);
+    if (const auto hit = surface_->entry(mesh_.positions(), from, to)) return hit;
+  }
+  return std::nullopt;
+}
+
+std::optional<Vec3> Simulation::under_surface(const BladePose& pose) const {
+  const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
+  if (!((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)) return std::nullopt;
+  return surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
+}
+
+Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) {
+  Indentation& press = *indentation_;
+  switch (press.phase()) {
+    case Indentation::Phase::Free: {
+      // A blade touches the surface where one of its points crosses it inwards in this sample: the
+      // tip, or a point of the edge (a blade laid on the skin). The first such point, from the tip,
+      // sets where the skin sticks to it.
+      if (samples_ > 0)
+        if (const auto hit = entry(blade(last_), pose)) {
+          press.touch(hit->face, pose.tip, hit->point, hit->normal, t, mesh_, *tissue_);
+          return press.phase() == Indentation::Phase::Cutting ? BladeMove::Sweep : BladeMove::Hold;
+        }
+      // Out of the tissue the blade is only placed. One still under the surface (lifted off in the
+      // dimple of its last press) neither touches nor cuts: the skin it left is not caught again.
+      return under_surface(pose) ? BladeMove::Hold : BladeMove::Place;
+    }
+    case Indentation::Phase::Pressing:
+      return BladeMove::Hold;
+    case Indentation::Phase::Cutting:
+      if (!under_surface(pose) && !cutter_->in_contact()) press.left();
+      return BladeMove::Sweep;
+  }
+  return BladeMove::Sweep;
+}
+
 void Simulation::on_sample(const ToolSample& s) {
   const auto start = std::chrono::steady_clock::now();
   const BladePose pose = blade(s);
-  const CutStepStats stats = cutter_->step(pose);
+  // With contact, the blade presses the surface in before it cuts (sim/indentation.hpp): the cutter
+  // sweeps it only when it cuts, from its last pose before the touch.
+  const BladeMove move = indentation_ ? press_or_cut(pose, s.t) : BladeMove::Sweep;
+  const bool cuts = move == BladeMove::Sweep;
+  if (move == BladeMove::Place) cutter_->place(pose);
+  const CutStepStats stats = cuts ? cutter_->step(pose) : CutStepStats{};
   cut_seconds_.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   hand_over_cut();
-  {
+  if (cuts) {
     // Where the blade cuts deepest in the tissue (a probe of the surface only when the blade is near
     // it) and where that is in the tissue (rest coordinates), for the score: the tip, or where the
     // blade enters the tissue when the tip has gone through its whole thickness. Depth: its
@@ -151,6 +206,9 @@ void Simulation::on_sample(const ToolSample& s) {
     // its own force limit); the last frame's contact sets it.
     scorer_->on_sample(s.t, pose, stats, hit, rest_tip, material_depth,
                        scenario_.tool.cutting_resistance * contact_.length);
+  } else {
+    // Pressing: the blade is on the tissue, not in it.
+    scorer_->on_sample(s.t, pose, stats, std::nullopt, std::nullopt, std::nullopt, 0.0);
   }
   last_ = s;
   ++samples_;
@@ -259,7 +317,14 @@ void Simulation::hold_severed_pieces(double t) {
 void Simulation::end_frame(double t, ForceChannel& forces) {
   frame_time_ = t;
   hold_severed_pieces(t);
-  push_tissue();
+  const bool pressing = indentation_ && indentation_->phase() == Indentation::Phase::Pressing;
+  if (pressing) {
+    tissue_->clear_external_forces();  // the blade is on the tissue: no edge drags it
+    contact_ = {};
+    indentation_->follow(blade(last_).tip, mesh_);
+  } else {
+    push_tissue();
+  }
   const double dt = 1.0 / scenario_.tissue.rate;
   while (tissue_time_ + dt <= t + 1e-12) {
     const auto start = std::chrono::steady_clock::now();
@@ -270,20 +335,59 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     topology_changed_ = false;
     tissue_time_ += dt;
   }
-  // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue).
-  cutter_->follow_tissue();
+  if (pressing) settle_press(t);
+  // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue); a
+  // blade that has not cut in (contact) cuts nothing the tissue brings to it.
+  if (!indentation_ || indentation_->phase() == Indentation::Phase::Cutting)
+    cutter_->follow_tissue();
+  else
+    cutter_->refit();
   hand_over_cut();
   update_bounds();
   // The force model the haptic loop renders until the next frame: the resistance of the blade's
-  // edge inside the tissue (see simulation.hpp). The coupling spring is off (k_c = 0).
+  // edge inside the tissue (see simulation.hpp), or the pressed surface. The coupling spring is off
+  // (k_c = 0).
   ForceModel model;
   model.sequence = ++force_sequence_;
   model.t = t;
   model.constrained_position = last_.position;
   model.cutting_resistance = scenario_.tool.cutting_resistance * contact_.length;
+  if (indentation_ && indentation_->phase() == Indentation::Phase::Pressing) {
+    set_contact_model(model);
+    press_model_ = model;
+  } else {
+    press_model_.reset();
+  }
   forces.publish(model);
-  contact_forces_.push_back(contact_.force.norm());
+  contact_forces_.push_back(pressing ? indentation_->force().norm() : contact_.force.norm());
   if (samples_ > 0) frame_start_ = last_;
+}
+
+void Simulation::settle_press(double t) {
+  const BladePose pose = blade(last_);
+  indentation_->settle(t, pose, *tissue_);
+  // The local model published at the last frame, evaluated where the tool is now, against the
+  // force the full solve gives here: the error the hand felt between the frames.
+  if (press_model_ && indentation_->phase() != Indentation::Phase::Free) {
+    const ForceModel& m = *press_model_;
+    const double predicted =
+        m.contact_stiffness * std::max(0.0, m.contact_offset - m.contact_normal.dot(last_.position));
+    press_model_errors_.push_back(std::abs(predicted - indentation_->normal_force()));
+  }
+}
+
+// The pressed surface as a plane in device space: f(x) = k (d - n.x) n gives the solved normal force
+// at the tool's position now and changes by the measured stiffness as the tool moves.
+void Simulation::set_contact_model(ForceModel& model) const {
+  const DeviceMapping& map = scenario_.device.mapping;
+  const Vec3 n = map.rotation.conjugate() * indentation_->normal();
+  // A device displacement dx moves the blade by scale R dx: the stiffness per device metre.
+  const double k = indentation_->stiffness() * map.scale;
+  model.contact = true;
+  model.contact_normal = n;
+  model.contact_stiffness = k;
+  const double f = std::max(0.0, indentation_->normal_force());
+  model.contact_offset = n.dot(last_.position) + (k > 0 ? f / k : 0.0);
 }
 
 }  // namespace scalpel

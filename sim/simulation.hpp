@@ -27,6 +27,7 @@
 #include "haptics/force_model.hpp"
 #include "mesh/io/mesh_io.hpp"
 #include "mesh/mesh.hpp"
+#include "sim/indentation.hpp"
 #include "sim/scenario.hpp"
 #include "sim/snapshot.hpp"
 #include "sim/surface_probe.hpp"
@@ -115,8 +116,16 @@ class Simulation {
   // A scalpel blade is about 0.4 mm thick: on its own cut it touches faces that far apart.
   static constexpr double kBladeHalfThickness = 0.2e-3;  // [m]
   [[nodiscard]] const ToolContact& tool_contact() const { return contact_; }
+  // With contact, the points of the blade tested for a touch of the surface: this far apart.
+  static constexpr double kTouchSpacing = 1e-3;  // [m]
   // Per frame: the magnitude of the force on the tissue [N].
   [[nodiscard]] const std::vector<double>& contact_forces() const { return contact_forces_; }
+  // The blade's press on the surface before it cuts (sim/indentation.hpp); null without
+  // `tool.contact: indent`.
+  [[nodiscard]] const Indentation* indentation() const { return indentation_.get(); }
+  // Per frame of a press after its first: |the normal force the last frame's local model gives at
+  // the tool's position now - the force the solve gives now| [N].
+  [[nodiscard]] const std::vector<double>& press_model_errors() const { return press_model_errors_; }
 
  private:
   // Sets the tissue's external forces from the blade's motion over the frame (see above).
@@ -127,6 +136,21 @@ class Simulation {
   void hand_over_cut();
   // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).
   void hold_severed_pieces(double t);
+  // Where a point of the blade (the tip, and points of the edge kTouchSpacing apart) first crosses
+  // the outer surface inwards between two poses, if one does.
+  [[nodiscard]] std::optional<SurfaceHit> entry(const BladePose& before, const BladePose& now) const;
+  // The deepest point of the blade under the tissue's outer surface (SurfaceProbe), if any.
+  [[nodiscard]] std::optional<Vec3> under_surface(const BladePose& pose) const;
+  // With contact: the press's phase for this sample, and what the cutter does with the blade.
+  enum class BladeMove : std::uint8_t {
+    Sweep,  // sweeps it from its last pose (it cuts)
+    Place,  // places it without a sweep (it is out of the tissue)
+    Hold,   // keeps its last pose (the blade presses the surface, or is in the dimple it left)
+  };
+  BladeMove press_or_cut(const BladePose& pose, double t);
+  // With contact, at the end of a frame spent pressing: the press's force, puncture or lift-off.
+  void settle_press(double t);
+  void set_contact_model(ForceModel& model) const;
 
   Scenario scenario_;
   TetMesh mesh_;
@@ -154,6 +178,9 @@ class Simulation {
   std::vector<double> contact_forces_;
   std::vector<double> cut_seconds_;
   std::uint64_t force_sequence_ = 0;
+  std::unique_ptr<Indentation> indentation_;
+  std::optional<ForceModel> press_model_;  // published at the last frame, while pressing
+  std::vector<double> press_model_errors_;
 };
 
 }  // namespace scalpel

@@ -20,6 +20,7 @@ namespace {
 struct BladeCrossing {
   double t = std::numeric_limits<double>::infinity();
   Vec3 normal = Vec3::Zero();
+  std::array<std::uint32_t, 3> face{};
   Vec3 dir = Vec3::Zero();
   double length = 0;
   [[nodiscard]] bool leaving() const { return normal.dot(dir) > 0.0; }
@@ -49,6 +50,7 @@ std::optional<BladeCrossing> first_crossing(const std::vector<std::array<std::ui
     if (t < 0.0 || t >= best.t) continue;
     best.t = t;
     best.normal = e1.cross(e2);
+    best.face = f;
   }
   return best;
 }
@@ -74,6 +76,14 @@ std::optional<Vec3> SurfaceProbe::deepest_in_tissue(const std::vector<Vec3>& x, 
   return std::nullopt;
 }
 
+std::optional<SurfaceHit> SurfaceProbe::entry(const std::vector<Vec3>& x, const Vec3& from,
+                                              const Vec3& to) const {
+  const auto c = first_crossing(faces_, x, from, to);
+  if (!c || !(c->t <= c->length) || c->leaving()) return std::nullopt;
+  const Vec3 normal = c->normal.normalized();
+  return SurfaceHit{(c->length - c->t) * -c->dir.dot(normal), from + c->t * c->dir, normal, c->face};
+}
+
 SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p, const Vec3& up) const {
   SurfaceHit best;
   double best_d2 = std::numeric_limits<double>::infinity();
@@ -86,7 +96,7 @@ SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p, cons
     const double d2 = (q - p).squaredNorm();
     if (d2 >= best_d2) continue;
     best_d2 = d2;
-    best = {std::sqrt(d2), q, n.normalized()};
+    best = {std::sqrt(d2), q, n.normalized(), f};
   }
   return best;
 }

@@ -20,9 +20,10 @@
 namespace scalpel {
 
 struct SurfaceHit {
-  double depth = 0;            // [m] of the tip below the surface (see the functions)
-  Vec3 point = Vec3::Zero();   // on the surface [m]
-  Vec3 normal = Vec3::Zero();  // outward unit normal of the surface there
+  double depth = 0;                     // [m] of the tip below the surface (see the functions)
+  Vec3 point = Vec3::Zero();            // on the surface [m]
+  Vec3 normal = Vec3::Zero();           // outward unit normal of the surface there
+  std::array<std::uint32_t, 3> face{};  // node slots of its triangle (nearest() and entry())
 };
 
 class SurfaceProbe {
@@ -47,6 +48,13 @@ class SurfaceProbe {
   // when the blade between tip and back does not meet the tissue.
   [[nodiscard]] std::optional<Vec3> deepest_in_tissue(const std::vector<Vec3>& x, const Vec3& tip,
                                                       const Vec3& back) const;
+
+  // Where a point moving from `from` to `to` first crosses the surface into the tissue, in
+  // positions `x`: the point, the triangle's outward normal and nodes, and how deep `to` lies below
+  // that triangle's plane as `depth`. None when it does not cross the surface, or first crosses it
+  // on the way out.
+  [[nodiscard]] std::optional<SurfaceHit> entry(const std::vector<Vec3>& x, const Vec3& from,
+                                                const Vec3& to) const;
 
   // The nearest point to `p`, in positions `x`, of the surface that faces `up` (outward normal
   // within kFacingDeg of it; the blade's axis towards its back): its distance as `depth`, the point
