@@ -24,7 +24,8 @@
 // is one triangle of the mesh, so the stiffness the hand feels grows with the mesh's cells, and it
 // stays where it was touched (a blade drawn along the skin far from it presses nothing new); the
 // skin's pull on an edge drawn along it (slicing) does not count towards the puncture;
-// re-entering an incision presses on its lips as on intact skin.
+// a blade that jumps deep into the tissue between two samples (a gap in the device's samples)
+// cuts in at once, as without contact.
 #pragma once
 
 #include <cstdint>
@@ -79,6 +80,12 @@ class Indentation {
   // Pressing: after the tissue steps at time t, the force on the blade and the depth; a puncture
   // (-> Cutting) or a lift-off (-> Free) lets the stuck nodes go. Returns the phase after.
   Phase settle(double t, const BladePose& blade, TissueModel& tissue);
+  // Free -> Cutting without a press: the blade entered an incision already made, or jumped deep
+  // into the tissue between two samples.
+  void enter_without_press() {
+    phase_ = Phase::Cutting;
+    ++unpressed_;
+  }
   // Cutting -> Free: the blade is out of the tissue.
   void left() {
     if (phase_ == Phase::Cutting) phase_ = Phase::Free;
@@ -93,9 +100,10 @@ class Indentation {
   [[nodiscard]] double stiffness() const { return stiffness_; }
   [[nodiscard]] std::span<const NodeId> stuck() const { return stuck_; }
   [[nodiscard]] const std::vector<PunctureEvent>& punctures() const { return punctures_; }
-  [[nodiscard]] std::size_t presses() const { return presses_; }        // touches so far
-  [[nodiscard]] std::size_t lifted() const { return lifted_; }          // presses ended without a cut
-  [[nodiscard]] double max_normal_force() const { return max_force_; }  // [N] over all presses
+  [[nodiscard]] std::size_t presses() const { return presses_; }              // touches so far
+  [[nodiscard]] std::size_t lifted() const { return lifted_; }                // presses ended without a cut
+  [[nodiscard]] std::size_t unpressed_entries() const { return unpressed_; }  // enter_without_press()
+  [[nodiscard]] double max_normal_force() const { return max_force_; }        // [N] over all presses
 
  private:
   void let_go(TissueModel& tissue);
@@ -111,7 +119,7 @@ class Indentation {
   Vec3 force_ = Vec3::Zero();
   double normal_force_ = 0, depth_ = 0, stiffness_ = 0, max_force_ = 0;
   std::vector<PunctureEvent> punctures_;
-  std::size_t presses_ = 0, lifted_ = 0;
+  std::size_t presses_ = 0, lifted_ = 0, unpressed_ = 0;
 };
 
 }  // namespace scalpel

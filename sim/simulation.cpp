@@ -134,6 +134,19 @@ std::optional<SurfaceHit> Simulation::entry(const BladePose& before, const Blade
   return std::nullopt;
 }
 
+bool Simulation::on_earlier_cut(const Vec3& point, const Vec3& normal) const {
+  const std::vector<Vec3> cut = cutter_->cut_points();
+  if (cut.empty()) return false;
+  // Just under the surface: in an opened crack there is no tissue to locate.
+  const auto at = cutter_->locate(point - kReentryDistance * 0.1 * normal);
+  if (!at) return true;
+  Vec3 rest = Vec3::Zero();
+  for (int i = 0; i < 4; ++i) rest += at->weights[i] * mesh_.rest(at->corners[i]);
+  for (const Vec3& c : cut)
+    if ((c - rest).norm() < kReentryDistance) return true;
+  return false;
+}
+
 std::optional<Vec3> Simulation::under_surface(const BladePose& pose) const {
   const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
   if (!((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)) return std::nullopt;
@@ -149,6 +162,12 @@ Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) 
       // sets where the skin sticks to it.
       if (samples_ > 0)
         if (const auto hit = entry(blade(last_), pose)) {
+          // Into an incision already made, or a jump deep into the tissue in one sample (a gap in
+          // the samples, which a press cannot follow): it cuts on at once.
+          if (hit->depth > kJumpDepth || on_earlier_cut(hit->point, hit->normal)) {
+            press.enter_without_press();
+            return BladeMove::Sweep;
+          }
           press.touch(hit->face, pose.tip, hit->point, hit->normal, t, mesh_, *tissue_);
           return press.phase() == Indentation::Phase::Cutting ? BladeMove::Sweep : BladeMove::Hold;
         }

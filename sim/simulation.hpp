@@ -118,6 +118,12 @@ class Simulation {
   [[nodiscard]] const ToolContact& tool_contact() const { return contact_; }
   // With contact, the points of the blade tested for a touch of the surface: this far apart.
   static constexpr double kTouchSpacing = 1e-3;  // [m]
+  // With contact, a blade that enters the surface this near an earlier cut enters that incision and
+  // cuts on without a press (about half the edge of a cell of the bundled meshes).
+  static constexpr double kReentryDistance = 1e-3;  // [m]
+  // With contact, a blade that comes this far under the surface in one sample (1 m/s at 1 kHz, far
+  // beyond a hand's speed) has jumped: it cuts in without a press.
+  static constexpr double kJumpDepth = 1e-3;  // [m]
   // Per frame: the magnitude of the force on the tissue [N].
   [[nodiscard]] const std::vector<double>& contact_forces() const { return contact_forces_; }
   // The blade's press on the surface before it cuts (sim/indentation.hpp); null without
@@ -139,6 +145,10 @@ class Simulation {
   // Where a point of the blade (the tip, and points of the edge kTouchSpacing apart) first crosses
   // the outer surface inwards between two poses, if one does.
   [[nodiscard]] std::optional<SurfaceHit> entry(const BladePose& before, const BladePose& now) const;
+  // Whether a blade entering the surface at `point` (outward normal `normal`) enters an incision
+  // already made: the point just under the surface lies in an opened crack, or within
+  // kReentryDistance (at rest) of a point the cutter has cut.
+  [[nodiscard]] bool on_earlier_cut(const Vec3& point, const Vec3& normal) const;
   // The deepest point of the blade under the tissue's outer surface (SurfaceProbe), if any.
   [[nodiscard]] std::optional<Vec3> under_surface(const BladePose& pose) const;
   // With contact: the press's phase for this sample, and what the cutter does with the blade.
