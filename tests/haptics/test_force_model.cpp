@@ -149,6 +149,10 @@ TEST_CASE("a contact held for 10 s at 1 kHz gains no energy, and the force stays
   CHECK(raw.final_amplitude > 1e-4);
 
   const HeldContact held = hold_contact(true, 10.0);
+  MESSAGE("without the controller: " << raw.final_energy_in << " J put in over 10 s, chatter "
+                                     << raw.final_amplitude << " m; with it: " << held.final_energy_in
+                                     << " J, lowest " << held.min_energy_in << " J, chatter "
+                                     << held.final_amplitude << " m");
   // Over the held contact the environment gives back no more than it took: the controller pays
   // back, within the 10 s, what the first impact's sampling gave out (the impact carries 1.1 mJ).
   CHECK(held.final_energy_in > -1e-5);
