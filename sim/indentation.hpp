@@ -24,8 +24,8 @@
 // is one triangle of the mesh, so the stiffness the hand feels grows with the mesh's cells, and it
 // stays where it was touched (a blade drawn along the skin far from it presses nothing new); the
 // skin's pull on an edge drawn along it (slicing) does not count towards the puncture;
-// a blade that jumps deep into the tissue between two samples (a gap in the device's samples)
-// cuts in at once, as without contact.
+// a blade that jumps into the tissue between two samples (a gap, or samples merged while the
+// simulation fell behind) cuts in at once, as without contact.
 #pragma once
 
 #include <cstdint>

@@ -162,9 +162,11 @@ Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) 
       // sets where the skin sticks to it.
       if (samples_ > 0)
         if (const auto hit = entry(blade(last_), pose)) {
-          // Into an incision already made, or a jump deep into the tissue in one sample (a gap in
-          // the samples, which a press cannot follow): it cuts on at once.
-          if (hit->depth > kJumpDepth || on_earlier_cut(hit->point, hit->normal)) {
+          // Into an incision already made, or a jump in one sample (a gap in the samples, or samples
+          // the haptic loop merged while the simulation fell behind: one long sweep, which a press
+          // cannot follow): it cuts on at once, as without contact.
+          const bool jump = (pose.tip - blade(last_).tip).norm() > kJumpDistance;
+          if (jump || on_earlier_cut(hit->point, hit->normal)) {
             press.enter_without_press();
             return BladeMove::Sweep;
           }

@@ -121,9 +121,9 @@ class Simulation {
   // With contact, a blade that enters the surface this near an earlier cut enters that incision and
   // cuts on without a press (about half the edge of a cell of the bundled meshes).
   static constexpr double kReentryDistance = 1e-3;  // [m]
-  // With contact, a blade that comes this far under the surface in one sample (1 m/s at 1 kHz, far
-  // beyond a hand's speed) has jumped: it cuts in without a press.
-  static constexpr double kJumpDepth = 1e-3;  // [m]
+  // With contact, a tip that moves this far in one sample (1 m/s at 1 kHz, far beyond a hand's
+  // speed) has jumped (a gap, or merged samples): entering the tissue so, it cuts in without a press.
+  static constexpr double kJumpDistance = 1e-3;  // [m]
   // Per frame: the magnitude of the force on the tissue [N].
   [[nodiscard]] const std::vector<double>& contact_forces() const { return contact_forces_; }
   // The blade's press on the surface before it cuts (sim/indentation.hpp); null without
