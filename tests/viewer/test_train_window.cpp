@@ -73,8 +73,13 @@ class VirtualDisplay {
   std::string name_, old_;
 };
 
+// The bundled incision, cutting on touch: under ThreadSanitizer the live simulation falls far behind
+// the played-back log, and the press before the cut (docs/contact.md) then decides how much of the
+// incision a merged sweep cuts; this test is about the window.
 Scenario bundled_incision() {
-  return load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
+  Scenario s = load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/skin_incision.yaml");
+  s.tool.contact = ToolContactKind::None;
+  return s;
 }
 
 // A folder of the system's temporary folder, emptied.
