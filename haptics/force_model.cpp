@@ -32,10 +32,7 @@ Eigen::Vector3d ForceRenderer::render(const Eigen::Vector3d& x, const ForceModel
   const ForceModel& m = *model;
   Eigen::Vector3d f = m.coupling_stiffness * (m.constrained_position - x) +
                       m.coupling_damping * (m.constrained_velocity - v_);
-  if (m.contact) {
-    const double depth = m.contact_offset - m.contact_normal.dot(x);  // [m]
-    if (depth > 0.0) f += m.contact_stiffness * depth * m.contact_normal;
-  }
+  if (m.contact) f += m.contact_force(x) * m.contact_normal;
   if (m.cutting_resistance > 0.0) f -= m.cutting_resistance * v_ / std::max(v_.norm(), kCutSpeedFloor);
   // The passivity controller: a damper that dissipates the energy the environment has generated,
   // over the next cycle at the velocity of the last one (not the filtered one: its lag would turn

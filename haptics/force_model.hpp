@@ -49,6 +49,14 @@ struct ForceModel {
   double contact_stiffness = 0.0;                             // k_s [N/m]
 
   double cutting_resistance = 0.0;  // R [N], 0 while not cutting
+
+  // [N] The contact's force along contact_normal at tool position x: k_s max(0, d - n.x); 0 without
+  // contact.
+  [[nodiscard]] double contact_force(const Eigen::Vector3d& x) const {
+    if (!contact) return 0.0;
+    const double depth = contact_offset - contact_normal.dot(x);  // [m]
+    return depth > 0.0 ? contact_stiffness * depth : 0.0;
+  }
 };
 
 // Simulation thread publishes, haptic thread reads; wait-free both ways.

@@ -120,10 +120,14 @@ BladePose Simulation::blade(const ToolSample& s) const {
           position + orientation * scenario_.tool.blade_tip, edge};
 }
 
+bool Simulation::meets_bounds(const Vec3& lo, const Vec3& hi) const {
+  return (hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0;
+}
+
 std::optional<SurfaceHit> Simulation::entry(const BladePose& before, const BladePose& now) const {
   const Vec3 lo = now.tip.cwiseMin(now.back).cwiseMin(before.tip).cwiseMin(before.back);
   const Vec3 hi = now.tip.cwiseMax(now.back).cwiseMax(before.tip).cwiseMax(before.back);
-  if (!((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)) return std::nullopt;
+  if (!meets_bounds(lo, hi)) return std::nullopt;
   const double length = (now.tip - now.back).norm();
   const int points = std::clamp(static_cast<int>(std::ceil(length / kTouchSpacing)), 1, 64);
   for (int k = 0; k <= points; ++k) {
@@ -149,7 +153,7 @@ bool Simulation::on_earlier_cut(const Vec3& point, const Vec3& normal) const {
 
 std::optional<Vec3> Simulation::under_surface(const BladePose& pose) const {
   const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
-  if (!((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)) return std::nullopt;
+  if (!meets_bounds(lo, hi)) return std::nullopt;
   return surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
 }
 
@@ -160,12 +164,13 @@ Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) 
       // A blade touches the surface where one of its points crosses it inwards in this sample: the
       // tip, or a point of the edge (a blade laid on the skin). The first such point, from the tip,
       // sets where the skin sticks to it.
+      const BladePose before = blade(last_);
       if (samples_ > 0)
-        if (const auto hit = entry(blade(last_), pose)) {
+        if (const auto hit = entry(before, pose)) {
           // Into an incision already made, or a jump in one sample (a gap in the samples, or samples
           // the haptic loop merged while the simulation fell behind: one long sweep, which a press
           // cannot follow): it cuts on at once, as without contact.
-          const bool jump = (pose.tip - blade(last_).tip).norm() > kJumpDistance;
+          const bool jump = (pose.tip - before.tip).norm() > kJumpDistance;
           if (jump || on_earlier_cut(hit->point, hit->normal)) {
             press.enter_without_press();
             return BladeMove::Sweep;
@@ -210,12 +215,9 @@ void Simulation::on_sample(const ToolSample& s) {
     const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
     // A tip outside the tissue's box is never under its surface, whatever the ray test says where
     // rounding lets the line slip between the triangles it enters through.
-    const auto inside_bounds = [&](const Vec3& p) {
-      return (p - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - p).minCoeff() >= 0;
-    };
-    if ((hi - bounds_lo_).minCoeff() >= 0 && (bounds_hi_ - lo).minCoeff() >= 0)
+    if (meets_bounds(lo, hi))
       if (const auto deepest = surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
-          deepest && (*deepest != pose.tip || inside_bounds(pose.tip))) {
+          deepest && (*deepest != pose.tip || meets_bounds(pose.tip, pose.tip))) {
         hit = surface_->nearest(mesh_.positions(), *deepest, up);
         if (const auto at = cutter_->locate(*deepest, kBladeHalfThickness)) {
           rest_tip = Vec3::Zero();
@@ -390,9 +392,7 @@ void Simulation::settle_press(double t) {
   // The local model published at the last frame, evaluated where the tool is now, against the
   // force the full solve gives here: the error the hand felt between the frames.
   if (press_model_ && indentation_->phase() != Indentation::Phase::Free) {
-    const ForceModel& m = *press_model_;
-    const double predicted =
-        m.contact_stiffness * std::max(0.0, m.contact_offset - m.contact_normal.dot(last_.position));
+    const double predicted = press_model_->contact_force(last_.position);
     press_model_errors_.push_back(std::abs(predicted - indentation_->normal_force()));
   }
 }

@@ -149,6 +149,8 @@ class Simulation {
   // already made: the point just under the surface lies in an opened crack, or within
   // kReentryDistance (at rest) of a point the cutter has cut.
   [[nodiscard]] bool on_earlier_cut(const Vec3& point, const Vec3& normal) const;
+  // Whether the box [lo, hi] meets the box of the current positions.
+  [[nodiscard]] bool meets_bounds(const Vec3& lo, const Vec3& hi) const;
   // The deepest point of the blade under the tissue's outer surface (SurfaceProbe), if any.
   [[nodiscard]] std::optional<Vec3> under_surface(const BladePose& pose) const;
   // With contact: the press's phase for this sample, and what the cutter does with the blade.
