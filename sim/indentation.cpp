@@ -61,8 +61,9 @@ void Indentation::touch(std::span<const std::uint32_t> face, const Vec3& tip, co
 
 void Indentation::follow(const Vec3& tip, TetMesh& mesh) const {
   if (phase_ != Phase::Pressing) return;
-  // Along the normal only: the skin does not stick to the blade sideways (frictionless).
-  const Vec3 moved = (tip - tip_at_).dot(normal_) * normal_;
+  // Along the normal only: the skin does not stick to the blade sideways (frictionless), and inwards
+  // only: a blade drawn back above where it touched does not pull the skin out after it.
+  const Vec3 moved = std::min(0.0, (tip - tip_at_).dot(normal_)) * normal_;
   for (std::size_t i = 0; i < stuck_.size(); ++i) {
     mesh.positions()[stuck_[i].index] = stuck_at_[i] + moved;
     mesh.velocities()[stuck_[i].index].setZero();
@@ -76,7 +77,12 @@ Indentation::Phase Indentation::settle(double t, const BladePose& blade, TissueM
   depth_ = (tip_at_ - blade.tip).dot(normal_);
   if (depth_ > kMinStiffnessDepth && normal_force_ > 0) stiffness_ = normal_force_ / depth_;
   max_force_ = std::max(max_force_, normal_force_);
-  if (!(normal_force_ > 0.0)) {  // lifted off: the tissue no longer pushes the blade
+  // Lifted off: the tip drawn back above where it touched, or the tissue no longer pushing a blade
+  // that has pressed it in (drawn back faster than the skin follows). A tip still where it touched
+  // rests on the skin whatever the sign of the load at rest (prestress, the solve's tolerance).
+  const bool withdrawn = depth_ < 0.0;
+  const bool separated = !(normal_force_ > 0.0) && depth_ > kMinStiffnessDepth;
+  if (withdrawn || separated) {
     ++lifted_;
     let_go(tissue);
     phase_ = Phase::Free;

@@ -17,8 +17,9 @@
 // Pressed tip first or edge first the whole force meets them; flat first or spine first none does,
 // so a blunt approach never cuts. The held nodes are let go and the cutter sweeps the blade in from
 // its pose before the touch; the released skin springs back around the blade and is cut as it comes
-// (CutEngine::follow_tissue). The press also ends, without a cut, when the tissue no longer pushes
-// the blade (it was lifted off, or drawn back faster than the skin follows).
+// (CutEngine::follow_tissue). The press also ends, without a cut, when the tip is drawn back above
+// where it touched, or the tissue no longer pushes a blade that has pressed it in (drawn back faster
+// than the skin follows).
 //
 // What it does not model: the flats and the handle have no contact of their own; the held patch
 // is one triangle of the mesh, so the stiffness the hand feels grows with the mesh's cells, and it
@@ -75,13 +76,14 @@ class Indentation {
   // none left to stick, the blade cuts at once (Cutting).
   void touch(std::span<const std::uint32_t> face, const Vec3& tip, const Vec3& point, const Vec3& normal,
              double t, const TetMesh& mesh, TissueModel& tissue);
-  // Pressing: before the tissue steps, the stuck nodes follow the tip's translation since the touch.
+  // Pressing: before the tissue steps, the stuck nodes follow the tip's translation since the touch
+  // along the normal, inwards only.
   void follow(const Vec3& tip, TetMesh& mesh) const;
   // Pressing: after the tissue steps at time t, the force on the blade and the depth; a puncture
   // (-> Cutting) or a lift-off (-> Free) lets the stuck nodes go. Returns the phase after.
   Phase settle(double t, const BladePose& blade, TissueModel& tissue);
-  // Free -> Cutting without a press: the blade entered an incision already made, or jumped deep
-  // into the tissue between two samples.
+  // Free -> Cutting without a press: the blade entered an incision already made, jumped deep into
+  // the tissue between two samples, or moved on under a surface that sprang back over it.
   void enter_without_press() {
     phase_ = Phase::Cutting;
     ++unpressed_;

@@ -178,9 +178,18 @@ Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) 
           press.touch(hit->face, pose.tip, hit->point, hit->normal, t, mesh_, *tissue_);
           return press.phase() == Indentation::Phase::Cutting ? BladeMove::Sweep : BladeMove::Hold;
         }
-      // Out of the tissue the blade is only placed. One still under the surface (lifted off in the
-      // dimple of its last press) neither touches nor cuts: the skin it left is not caught again.
-      return under_surface(pose) ? BladeMove::Hold : BladeMove::Place;
+      // Out of the tissue the blade is only placed. One under the surface without having crossed it
+      // (the skin sprang back over a blade lifted off in its dimple) is in the tissue: drawn out it
+      // holds, and the skin it leaves is not caught again; moved any other way it cuts, as in an
+      // incision already made. A blade in the tissue never passes through it.
+      if (samples_ > 0)
+        if (const auto deepest = under_surface(pose)) {
+          const Vec3 up = surface_->nearest(mesh_.positions(), *deepest, pose.back - pose.tip).normal;
+          if ((pose.tip - before.tip).dot(up) > 0.0 || pose.tip == before.tip) return BladeMove::Hold;
+          press.enter_without_press();
+          return BladeMove::Sweep;
+        }
+      return BladeMove::Place;
     }
     case Indentation::Phase::Pressing:
       return BladeMove::Hold;

@@ -191,3 +191,43 @@ TEST_CASE(
   REQUIRE(!p.sim.press_model_errors().empty());
   CHECK(p.sim.press_model_errors().back() < 0.02 * press.normal_force());
 }
+
+TEST_CASE("a frame that comes as the tip touches, before it has pressed in, does not end the press") {
+  Press p(scenario(0.5, kUpright));
+  const Indentation& press = *p.sim.indentation();
+  // Down sample by sample until the tip meets the skin, and a frame at once: no depth yet, and the
+  // load of the skin at rest may have either sign.
+  while (press.presses() == 0 && p.s.position.z() > -0.001)
+    p.sim.on_sample({.t = p.s.t += 0.001, .position = p.s.position += Vec3(0, 0, -2e-5)});
+  REQUIRE(press.presses() == 1);
+  p.frame();
+  CHECK(press.phase() == Indentation::Phase::Pressing);
+  CHECK(press.lifted() == 0);
+  p.move_to(-0.0015, 0.2);
+  CHECK(press.punctures().size() == 1);
+  CHECK(p.sim.cutter().totals().tets_created > 0);
+}
+
+TEST_CASE("a blade left under the skin cuts as it moves on: it never passes through the tissue") {
+  Press p(scenario(8.0, kUpright));
+  const Indentation& press = *p.sim.indentation();
+  p.move_to(-0.0004, 0.1);
+  p.move_to(-0.0004, 0.2);
+  REQUIRE(press.phase() == Indentation::Phase::Pressing);
+  REQUIRE(press.punctures().empty());
+  // Drawn back faster than the skin follows it, and held: the skin lets go of the blade, then
+  // springs back up over its tip.
+  p.move_to(-0.0002, 0.003);
+  p.move_to(-0.0002, 0.5);
+  REQUIRE(press.phase() == Indentation::Phase::Free);
+  REQUIRE(press.lifted() == 1);
+  double top = -1;
+  for (const NodeId n : p.sim.mesh().nodes()) top = std::max(top, p.sim.mesh().position(n).z());
+  REQUIRE(top > p.s.position.z() + 1e-4);
+  CHECK(p.sim.cutter().totals().tets_created == 0);
+  // Drawn along under the skin, edge first: it cuts its way.
+  for (int k = 1; k <= 300; ++k) p.sample(p.s.position + Vec3(2e-5, 0, 0));
+  CHECK(press.phase() == Indentation::Phase::Cutting);
+  CHECK(press.unpressed_entries() == 1);
+  CHECK(p.sim.cutter().totals().tets_created > 0);
+}
