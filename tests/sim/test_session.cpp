@@ -2,6 +2,7 @@
 // thread, frames published for a renderer; its recording replays headless to the same mesh.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <thread>
@@ -97,6 +98,104 @@ TEST_CASE("a live session's recording replays headless to the same mesh, bit for
     differing += positions[i] != live.mesh().positions()[i] ? 1 : 0;
   CHECK(differing == 0);
   CHECK(r.report["replay"]["frames"].get<std::size_t>() == live.tissue_steps().size());
+}
+
+namespace {
+
+// The playback device, as one that takes force, keeping every force the haptic loop sends it with the time of
+// the sample it answered: what the hand was given. Its store is reserved beforehand: the haptic thread never
+// allocates.
+class ForceTap final : public Device {
+ public:
+  struct Sent {
+    double t;
+    Vec3 position;
+    Vec3 force;
+  };
+  ForceTap(PlaybackDevice& inner, std::size_t capacity) : inner_(inner) { sent_.reserve(capacity); }
+  DeviceStatus read(double t, ToolSample& out) noexcept override {
+    const DeviceStatus status = inner_.read(t, out);
+    read_ = out;
+    return status;
+  }
+  void write_force(const Eigen::Vector3d& force) noexcept override {
+    if (sent_.size() < sent_.capacity()) sent_.push_back({read_.t, read_.position, force});
+  }
+  [[nodiscard]] DeviceCounters counters() const override { return inner_.counters(); }
+  // A device with motors, as the generic stylus profile's.
+  [[nodiscard]] double max_force() const override { return 3.3; }
+  [[nodiscard]] double max_force_rate() const override { return 2000.0; }
+  // After the session has stopped.
+  [[nodiscard]] const std::vector<Sent>& sent() const { return sent_; }
+
+ private:
+  PlaybackDevice& inner_;
+  ToolSample read_;
+  std::vector<Sent> sent_;
+};
+
+}  // namespace
+
+TEST_CASE(
+    "a live session's recording holds, for each sample, the force the haptic loop sent the device at "
+    "that cycle" *
+    doctest::test_suite("slow")) {
+  const Scenario scenario = bundled();
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_forces";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  PlaybackDevice playback(read_pose_log(scenario.log->string()));
+  ForceTap tap(playback, 1000 * 600);  // 1 kHz for as long as watch() waits
+  SessionOptions options;
+  options.record = dir / "forces.csv";
+  options.device_name = "playback";
+  Session session(scenario, tap, &playback, options);
+  session.update();
+  const std::size_t uncut = session.frame().snapshot.tetrahedra;
+  session.start();
+  const bool cutting =
+      watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut + 300; });
+  session.stop();
+  INFO(session.error());
+  REQUIRE(cutting);
+  REQUIRE(session.recordings().size() == 1);
+  const std::vector<ForceTap::Sent>& sent = tap.sent();
+  REQUIRE(!sent.empty());
+
+  // Every recorded sample is one the device answered, with the force it was sent then, to the bit;
+  // the hand was pushed (the blade pressed the skin and cut). The recording's times are session
+  // times, from the first sample the simulation took: the device's less a constant, without pauses.
+  PoseLogReader reader(session.recordings()[0].string());
+  REQUIRE(reader.has_force());
+  std::size_t samples = 0, pushed = 0, missing = 0, differing = 0;
+  double origin = 0;
+  auto at = sent.begin();
+  for (ToolSample s; reader.next(s);) {
+    if (samples++ == 0) {
+      at = std::find_if(sent.begin(), sent.end(),
+                        [&](const ForceTap::Sent& e) { return e.position == s.position; });
+      REQUIRE(at != sent.end());
+      origin = at->t - s.t;
+    }
+    // The cycle that answered at that time with that pose (on the real clock two cycles may come
+    // close together).
+    at = std::find_if(at, sent.end(), [&](const ForceTap::Sent& e) { return e.t > s.t + origin - 1e-4; });
+    while (at != sent.end() && at->position != s.position && at->t < s.t + origin + 1e-4) ++at;
+    if (at == sent.end() || std::abs(at->t - (s.t + origin)) > 1e-4 || at->position != s.position) {
+      ++missing;
+      continue;
+    }
+    differing += at->force != s.force ? 1 : 0;
+    pushed += s.force.norm() > 0.1 ? 1 : 0;
+  }
+  CHECK(samples == session.simulation().samples());
+  CHECK(missing == 0);
+  CHECK(differing == 0);
+#if defined(__SANITIZE_THREAD__)
+  (void)pushed;  // a frame outlasts the loop's stall timeout (0.1 s): the force goes to zero
+#else
+  CHECK(pushed > 100);
+#endif
 }
 
 TEST_CASE("a paused session stands still, and a reset starts a new attempt with its own recording" *
