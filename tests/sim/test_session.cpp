@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <string>
 #include <thread>
 #include <tuple>
 
@@ -37,14 +38,20 @@ bool watch(Session& session, Done done, double limit_seconds = 600.0) {
   return false;
 }
 
+// An empty folder of that name in the temporary directory.
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
 }  // namespace
 
 TEST_CASE("a live session's recording replays headless to the same mesh, bit for bit" *
           doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_dir("scalpelsim_test_session");
   PlaybackDevice device(read_pose_log(scenario.log->string()));  // at real speed
   SessionOptions options;
   options.record = dir / "session.csv";
@@ -141,9 +148,7 @@ TEST_CASE(
     "that cycle" *
     doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_forces";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_dir("scalpelsim_test_session_forces");
   PlaybackDevice playback(read_pose_log(scenario.log->string()));
   ForceTap tap(playback, 1000 * 600);  // 1 kHz for as long as watch() waits
   SessionOptions options;
@@ -201,9 +206,7 @@ TEST_CASE(
 TEST_CASE("a paused session stands still, and a reset starts a new attempt with its own recording" *
           doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_reset";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_dir("scalpelsim_test_session_reset");
   PlaybackDevice device(read_pose_log(scenario.log->string()));
   device.set_speed(4.0);
   SessionOptions options;
@@ -212,7 +215,9 @@ TEST_CASE("a paused session stands still, and a reset starts a new attempt with 
   session.update();
   const std::size_t uncut = session.frame().snapshot.tetrahedra;
   session.start();
-  REQUIRE(watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut; }));
+  const bool cut = watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut; });
+  INFO(session.error());
+  REQUIRE(cut);
 
   session.set_paused(true);
   REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.paused; }));
@@ -240,9 +245,7 @@ TEST_CASE("a paused session stands still, and a reset starts a new attempt with 
 
 TEST_CASE("a verbatim log without the frame column, or with an unknown playback, is refused by name") {
   const Scenario scenario = bundled();
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_bad";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_dir("scalpelsim_test_session_bad");
   const auto write = [&](const std::string& name, const std::string& playback) {
     PoseLogWriter w((dir / name).string(), {{"playback", playback}}, true);
     ToolSample s;
@@ -286,9 +289,7 @@ class MovingHand final : public Device {
 TEST_CASE("a tool moved during a pause resumes where it stood: no jump for the cutter" *
           doctest::test_suite("slow")) {
   const Scenario scenario = bundled();
-  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_session_clutch";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = fresh_dir("scalpelsim_test_session_clutch");
   MovingHand hand;
   SessionOptions options;
   options.record = dir / "clutch.csv";
