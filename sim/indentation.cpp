@@ -30,31 +30,15 @@ void Indentation::touch(std::span<const std::uint32_t> face, const Vec3& tip, co
   ++presses_;
   stuck_.clear();
   stuck_at_.clear();
-  level_at_.clear();
+  threshold_ = std::numeric_limits<double>::infinity();
+  region_ = -1;
   for (const std::uint32_t slot : face) {
     const NodeId n = mesh.node_handle(slot);
     if (tissue.fixed(n)) continue;
     stuck_.push_back(n);
     stuck_at_.push_back(mesh.position(n));
-    level_at_.push_back(tip);
     tissue.set_fixed(n);
-  }
-  std::copy_n(face.begin(), std::min<std::size_t>(3, face.size()), face_.begin());
-  weakest_region(mesh);
-  tip_at_ = tip;
-  point_ = point;
-  normal_ = normal.normalized();
-  touched_ = t;
-  force_.setZero();
-  normal_force_ = depth_ = stiffness_ = 0;
-  phase_ = stuck_.empty() ? Phase::Cutting : Phase::Pressing;
-}
-
-// The weakest region around the stuck nodes gives way first.
-void Indentation::weakest_region(const TetMesh& mesh) {
-  threshold_ = std::numeric_limits<double>::infinity();
-  region_ = -1;
-  for (const NodeId n : stuck_)
+    // The weakest region around the stuck nodes gives way first.
     for (const std::uint32_t tet : mesh.node_tets(n)) {
       const int r = mesh.region(mesh.tet_handle(tet));
       const double f = r >= 0 && static_cast<std::size_t>(r) < puncture_force_.size()
@@ -65,50 +49,23 @@ void Indentation::weakest_region(const TetMesh& mesh) {
         region_ = r;
       }
     }
-}
-
-bool Indentation::slide(std::span<const std::uint32_t> face, const TetMesh& mesh, TissueModel& tissue) {
-  if (phase_ != Phase::Pressing || face.size() != 3) return false;
-  std::array<std::uint32_t, 3> a{face[0], face[1], face[2]}, b = face_;
-  std::sort(a.begin(), a.end());
-  std::sort(b.begin(), b.end());
-  if (a == b) return false;
-  std::vector<NodeId> stuck;
-  std::vector<Vec3> at, level;
-  for (const std::uint32_t slot : face) {
-    const NodeId n = mesh.node_handle(slot);
-    const auto held = std::find(stuck_.begin(), stuck_.end(), n);
-    if (held != stuck_.end()) {  // held already: it goes on as it was
-      const auto i = static_cast<std::size_t>(held - stuck_.begin());
-      stuck.push_back(n);
-      at.push_back(stuck_at_[i]);
-      level.push_back(level_at_[i]);
-    } else if (!tissue.fixed(n)) {  // taken where it is: it follows once the tip is at its level
-      stuck.push_back(n);
-      at.push_back(mesh.position(n));
-      level.push_back(mesh.position(n));
-    }
   }
-  if (stuck.empty()) return false;
-  for (const NodeId n : stuck_)
-    if (std::find(stuck.begin(), stuck.end(), n) == stuck.end()) tissue.set_fixed(n, false);
-  for (const NodeId n : stuck) tissue.set_fixed(n);
-  stuck_ = std::move(stuck);
-  stuck_at_ = std::move(at);
-  level_at_ = std::move(level);
-  face_ = {face[0], face[1], face[2]};
-  weakest_region(mesh);
-  ++slides_;
-  return true;
+  tip_at_ = tip;
+  point_ = point;
+  normal_ = normal.normalized();
+  touched_ = t;
+  force_.setZero();
+  normal_force_ = depth_ = stiffness_ = 0;
+  phase_ = stuck_.empty() ? Phase::Cutting : Phase::Pressing;
 }
 
 void Indentation::follow(const Vec3& tip, TetMesh& mesh) const {
   if (phase_ != Phase::Pressing) return;
   // Along the normal only: the skin does not stick to the blade sideways (frictionless), and inwards
-  // only: a blade drawn back above where a node began to follow it does not pull the skin out after it.
+  // only: a blade drawn back above where it touched does not pull the skin out after it.
+  const Vec3 moved = std::min(0.0, (tip - tip_at_).dot(normal_)) * normal_;
   for (std::size_t i = 0; i < stuck_.size(); ++i) {
-    mesh.positions()[stuck_[i].index] =
-        stuck_at_[i] + std::min(0.0, (tip - level_at_[i]).dot(normal_)) * normal_;
+    mesh.positions()[stuck_[i].index] = stuck_at_[i] + moved;
     mesh.velocities()[stuck_[i].index].setZero();
   }
 }
@@ -151,7 +108,6 @@ void Indentation::let_go(TissueModel& tissue) {
   for (const NodeId n : stuck_) tissue.set_fixed(n, false);
   stuck_.clear();
   stuck_at_.clear();
-  level_at_.clear();
 }
 
 }  // namespace scalpel

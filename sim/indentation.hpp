@@ -21,18 +21,14 @@
 // where it touched, or the tissue no longer pushes a blade that has pressed it in (drawn back faster
 // than the skin follows).
 //
-// Sliding: the held patch is the surface triangle above the tip. Drawn along the skin while it
-// presses, the tip takes the triangle it moves under (slide): its nodes are pressed to the tip's
-// level and follow it, and those of the triangle it left are let go and spring back.
-//
 // What it does not model: the flats and the handle have no contact of their own; the held patch
-// is one triangle of the mesh, so the stiffness the hand feels grows with the mesh's cells; the
+// is one triangle of the mesh, so the stiffness the hand feels grows with the mesh's cells, and it
+// stays where it was touched (a blade drawn along the skin far from it presses nothing new); the
 // skin's pull on an edge drawn along it (slicing) does not count towards the puncture;
 // a blade that jumps into the tissue between two samples (a gap, or samples merged while the
 // simulation fell behind) cuts in at once, as without contact.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -80,13 +76,8 @@ class Indentation {
   // none left to stick, the blade cuts at once (Cutting).
   void touch(std::span<const std::uint32_t> face, const Vec3& tip, const Vec3& point, const Vec3& normal,
              double t, const TetMesh& mesh, TissueModel& tissue);
-  // Pressing: the tip has moved over the surface triangle `face` (node slots): the held patch slides
-  // with it. Nodes of the new triangle that were not held are taken where they are and pressed to
-  // the tip's level when above it; those it no longer covers are let go. False (nothing changes) when
-  // `face` is the held triangle or none of its nodes can be held.
-  bool slide(std::span<const std::uint32_t> face, const TetMesh& mesh, TissueModel& tissue);
-  // Pressing: before the tissue steps, the stuck nodes follow the tip along the normal, inwards only:
-  // those held at the touch by its translation since, those taken as it slid down to its level.
+  // Pressing: before the tissue steps, the stuck nodes follow the tip's translation since the touch
+  // along the normal, inwards only.
   void follow(const Vec3& tip, TetMesh& mesh) const;
   // Pressing: after the tissue steps at time t, the force on the blade and the depth; a puncture
   // (-> Cutting) or a lift-off (-> Free) lets the stuck nodes go. Returns the phase after.
@@ -110,9 +101,6 @@ class Indentation {
   // [N/m] normal force over depth: the local model the hand feels between frames.
   [[nodiscard]] double stiffness() const { return stiffness_; }
   [[nodiscard]] std::span<const NodeId> stuck() const { return stuck_; }
-  // The surface triangle (node slots) the tip presses now.
-  [[nodiscard]] const std::array<std::uint32_t, 3>& face() const { return face_; }
-  [[nodiscard]] std::size_t slides() const { return slides_; }  // slide()s over all presses
   [[nodiscard]] const std::vector<PunctureEvent>& punctures() const { return punctures_; }
   [[nodiscard]] std::size_t presses() const { return presses_; }              // touches so far
   [[nodiscard]] std::size_t lifted() const { return lifted_; }                // presses ended without a cut
@@ -121,14 +109,11 @@ class Indentation {
 
  private:
   void let_go(TissueModel& tissue);
-  void weakest_region(const TetMesh& mesh);
 
   std::vector<double> puncture_force_;
   Phase phase_ = Phase::Free;
   std::vector<NodeId> stuck_;
-  std::vector<Vec3> stuck_at_;  // their positions when taken
-  std::vector<Vec3> level_at_;  // where the tip was, along the normal, when each began to follow it
-  std::array<std::uint32_t, 3> face_{};
+  std::vector<Vec3> stuck_at_;  // their positions at the touch
   Vec3 tip_at_ = Vec3::Zero();  // the tip at the touch
   Vec3 point_ = Vec3::Zero(), normal_ = Vec3::UnitZ();
   double touched_ = 0, threshold_ = 0;
@@ -136,7 +121,7 @@ class Indentation {
   Vec3 force_ = Vec3::Zero();
   double normal_force_ = 0, depth_ = 0, stiffness_ = 0, max_force_ = 0;
   std::vector<PunctureEvent> punctures_;
-  std::size_t presses_ = 0, lifted_ = 0, unpressed_ = 0, slides_ = 0;
+  std::size_t presses_ = 0, lifted_ = 0, unpressed_ = 0;
 };
 
 }  // namespace scalpel

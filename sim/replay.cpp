@@ -66,7 +66,6 @@ json indentation_json(const Indentation& press, const Simulation& sim) {
   return {{"presses", press.presses()},
           {"punctures", punctures},
           {"lifted_off", press.lifted()},
-          {"slides", press.slides()},
           {"entries_without_press", press.unpressed_entries()},
           {"max_normal_force", press.max_normal_force()},
           {"local_model_error", error}};

@@ -353,7 +353,6 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   if (pressing) {
     tissue_->clear_external_forces();  // the blade is on the tissue: no edge drags it
     contact_ = {};
-    slide_press();
     indentation_->follow(blade(last_).tip, mesh_);
   } else {
     push_tissue();
@@ -394,15 +393,6 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   forces.publish(model);
   contact_forces_.push_back(pressing ? indentation_->force().norm() : contact_.force.norm());
   if (samples_ > 0) frame_start_ = last_;
-}
-
-// The held patch slides with the tip (frictionless): the triangle above the tip along the normal
-// at the touch, looked for from a little below the tip, where the nodes pressed to its level lie.
-void Simulation::slide_press() {
-  const Vec3 tip = blade(last_).tip;
-  const Vec3& n = indentation_->normal();
-  if (const auto over = surface_->above(mesh_.positions(), tip - kSlideProbe * n, tip + n))
-    indentation_->slide(over->face, mesh_, *tissue_);
 }
 
 void Simulation::settle_press(double t) {

@@ -124,9 +124,6 @@ class Simulation {
   // With contact, a tip that moves this far in one sample (1 m/s at 1 kHz, far beyond a hand's
   // speed) has jumped (a gap, or merged samples): entering the tissue so, it cuts in without a press.
   static constexpr double kJumpDistance = 1e-3;  // [m]
-  // With contact, the surface above the tip is looked for from this far below it, so that the nodes
-  // the tip pressed to its own level are above it (sim/indentation.hpp, slide).
-  static constexpr double kSlideProbe = 1e-5;  // [m]
   // Per frame: the magnitude of the force on the tissue [N].
   [[nodiscard]] const std::vector<double>& contact_forces() const { return contact_forces_; }
   // The blade's press on the surface before it cuts (sim/indentation.hpp); null without
@@ -163,9 +160,7 @@ class Simulation {
     Hold,   // keeps its last pose (the blade presses the surface, or is in the dimple it left)
   };
   BladeMove press_or_cut(const BladePose& pose, double t);
-  // With contact, at the end of a frame spent pressing: the held patch slides with the tip, then
-  // (after the tissue steps) the press's force, puncture or lift-off.
-  void slide_press();
+  // With contact, at the end of a frame spent pressing: the press's force, puncture or lift-off.
   void settle_press(double t);
   void set_contact_model(ForceModel& model) const;
 

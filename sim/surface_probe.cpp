@@ -64,7 +64,7 @@ std::optional<SurfaceHit> SurfaceProbe::above(const std::vector<Vec3>& x, const 
   const auto c = first_crossing(faces_, x, tip, back);
   if (!c || !c->leaving()) return std::nullopt;
   const Vec3 normal = c->normal.normalized();
-  return SurfaceHit{c->t * c->dir.dot(normal), tip + c->t * c->dir, normal, c->face};
+  return SurfaceHit{c->t * c->dir.dot(normal), tip + c->t * c->dir, normal};
 }
 
 std::optional<Vec3> SurfaceProbe::deepest_in_tissue(const std::vector<Vec3>& x, const Vec3& tip,

@@ -23,7 +23,7 @@ struct SurfaceHit {
   double depth = 0;                     // [m] of the tip below the surface (see the functions)
   Vec3 point = Vec3::Zero();            // on the surface [m]
   Vec3 normal = Vec3::Zero();           // outward unit normal of the surface there
-  std::array<std::uint32_t, 3> face{};  // node slots of its triangle
+  std::array<std::uint32_t, 3> face{};  // node slots of its triangle (nearest() and entry())
 };
 
 class SurfaceProbe {

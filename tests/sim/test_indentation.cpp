@@ -1,6 +1,5 @@
 #include <doctest/doctest.h>
 
-#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -231,32 +230,4 @@ TEST_CASE("a blade left under the skin cuts as it moves on: it never passes thro
   CHECK(press.phase() == Indentation::Phase::Cutting);
   CHECK(press.unpressed_entries() == 1);
   CHECK(p.sim.cutter().totals().tets_created > 0);
-}
-
-TEST_CASE("a blade drawn along the skin while it presses takes the skin under its tip with it") {
-  Press p(scenario(50.0, kUpright));
-  const Indentation& press = *p.sim.indentation();
-  p.move_to(-0.001, 0.1);
-  p.move_to(-0.001, 0.2);
-  REQUIRE(press.phase() == Indentation::Phase::Pressing);
-  const std::vector<NodeId> first(press.stuck().begin(), press.stuck().end());
-  const double force = press.normal_force();
-  // 8 mm along x, two cells, at the same depth and 4 cm/s.
-  for (int k = 1; k <= 200; ++k) p.sample(p.s.position + Vec3(4e-5, 0, 0));
-  p.move_to(-0.001, 0.2);
-  CHECK(press.phase() == Indentation::Phase::Pressing);
-  CHECK(press.slides() >= 2);
-  CHECK(p.sim.cutter().totals().tets_created == 0);
-  // The skin under the tip is held at its depth; where it pressed first the skin came back.
-  const TetMesh& mesh = p.sim.mesh();
-  for (const NodeId n : press.stuck()) {
-    CHECK(std::abs(mesh.position(n).x() - p.s.position.x()) <
-          0.0045);  // one cell: the triangle under the tip
-    CHECK(mesh.position(n).z() == doctest::Approx(p.s.position.z()).epsilon(1e-6));
-  }
-  for (const NodeId n : first)
-    if (std::find(press.stuck().begin(), press.stuck().end(), n) == press.stuck().end())
-      CHECK(mesh.position(n).z() > -0.0005);
-  // And it pushes the blade back about as hard as where it was first pressed.
-  CHECK(press.normal_force() == doctest::Approx(force).epsilon(0.5));
 }
