@@ -205,7 +205,11 @@ TEST_CASE(
 
 TEST_CASE("a paused session stands still, and a reset starts a new attempt with its own recording" *
           doctest::test_suite("slow")) {
-  const Scenario scenario = bundled();
+  // Played at four times its speed the incision outruns a simulation that falls far behind (under
+  // ThreadSanitizer), and the press would decide when the first cut comes; this test is of the pause
+  // and the reset: the blade cuts on touch.
+  Scenario scenario = bundled();
+  scenario.tool.contact = ToolContactKind::None;
   const fs::path dir = fresh_dir("scalpelsim_test_session_reset");
   PlaybackDevice device(read_pose_log(scenario.log->string()));
   device.set_speed(4.0);
