@@ -38,6 +38,18 @@ bool watch(Session& session, Done done, double limit_seconds = 600.0) {
   return false;
 }
 
+// Starts `session` and stops it in the middle of the incision, while the device still sends poses;
+// false when it did not get there.
+bool run_into_incision(Session& session) {
+  session.update();
+  const std::size_t uncut = session.frame().snapshot.tetrahedra;
+  session.start();
+  const bool cutting =
+      watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut + 300; });
+  session.stop();
+  return cutting;
+}
+
 // An empty folder of that name in the temporary directory.
 fs::path fresh_dir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / name;
@@ -58,13 +70,8 @@ TEST_CASE("a live session's recording replays headless to the same mesh, bit for
   options.device_name = "playback";
   Session session(scenario, device, &device, options);
   session.update();
-  const std::size_t uncut = session.frame().snapshot.tetrahedra;
   REQUIRE(session.frame().snapshot.wound_vertices == 0);
-  session.start();
-  // Stop in the middle of the incision, while the device still sends poses.
-  const bool cutting =
-      watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut + 300; });
-  session.stop();
+  const bool cutting = run_into_incision(session);
   INFO(session.error());
   REQUIRE(cutting);
   REQUIRE_FALSE(session.failed());
@@ -155,12 +162,7 @@ TEST_CASE(
   options.record = dir / "forces.csv";
   options.device_name = "playback";
   Session session(scenario, tap, &playback, options);
-  session.update();
-  const std::size_t uncut = session.frame().snapshot.tetrahedra;
-  session.start();
-  const bool cutting =
-      watch(session, [&](const SessionFrame& f) { return f.snapshot.tetrahedra > uncut + 300; });
-  session.stop();
+  const bool cutting = run_into_incision(session);
   INFO(session.error());
   REQUIRE(cutting);
   REQUIRE(session.recordings().size() == 1);
