@@ -23,3 +23,11 @@ endif()
 if(SCALPEL_BUILD_BENCH)
   find_package(benchmark REQUIRED)
 endif()
+
+# Teem's nrrd library reads scalar volumes (NRRD, attached or detached raw data) for the volume
+# data scenarios (mesh/io/nrrd.cpp). Debian's libteem-dev ships no pkg-config file.
+find_path(TEEM_INCLUDE_DIR teem/nrrd.h REQUIRED)
+find_library(TEEM_LIBRARY teem REQUIRED)
+add_library(scalpel_teem INTERFACE IMPORTED)
+target_include_directories(scalpel_teem SYSTEM INTERFACE ${TEEM_INCLUDE_DIR})
+target_link_libraries(scalpel_teem INTERFACE ${TEEM_LIBRARY})

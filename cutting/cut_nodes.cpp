@@ -64,9 +64,11 @@ void CutNodes::place(std::uint32_t id) {
     r += n.bary[i] * mesh_.rest(p);
     dx_face += (n.bary[i] - n.placed_bary[i]) * mesh_.position(p);
   }
+  const NodeParents parents = key_parents(mesh_, n.key, n.bary);
   for (const NodeId c : n.copies) {
     const std::optional<Vec3> x = current_position_of(c, r);
     mesh_.set_rest(c, r);
+    mesh_.interpolate_fields(c, parents);
     mesh_.set_position(c, x ? *x : Vec3(mesh_.position(c) + dx_face));
     changes_.moved_nodes.push_back(c);
     changes_.touched_nodes.push_back(c.index);

@@ -114,13 +114,18 @@ NodeId TetMesh::add_interpolated_node(const NodeParents& p) {
   }
   const NodeId n = add_node(r, x);
   vel_[n.index] = v;
+  interpolate_fields(n, p);
+  return n;
+}
+
+void TetMesh::interpolate_fields(NodeId n, const NodeParents& p) {
+  const std::uint32_t s = check(n);
   for (auto& f : fields_) {
     double value = 0.0;
     for (int i = 0; i < p.count; ++i)
-      value += p.weights[static_cast<size_t>(i)] * f[p.parents[static_cast<size_t>(i)].index];
-    f[n.index] = value;
+      value += p.weights[static_cast<size_t>(i)] * f[check(p.parents[static_cast<size_t>(i)])];
+    f[s] = value;
   }
-  return n;
 }
 
 void TetMesh::remove_node(NodeId n) {

@@ -96,7 +96,14 @@ class TetMesh {
   [[nodiscard]] int field_id(const std::string& name) const;  // -1 if absent
   [[nodiscard]] const std::vector<std::string>& field_names() const { return field_names_; }
   [[nodiscard]] double field(int id, NodeId n) const { return fields_[static_cast<size_t>(id)][check(n)]; }
+  // A field's raw slot array, indexed by NodeId::index; entries of free slots are meaningless.
+  [[nodiscard]] const std::vector<double>& field_values(int id) const {
+    return fields_[static_cast<size_t>(id)];
+  }
   void set_field(int id, NodeId n, double v) { fields_[static_cast<size_t>(id)][check(n)] = v; }
+  // Sets every field of n to the weighted sum of its parents' values (a node the cutter moves to
+  // new weights takes the fields at its new rest position).
+  void interpolate_fields(NodeId n, const NodeParents& p);
 
   // ---- tetrahedra ----------------------------------------------------------------------------
   // Adds a tetrahedron and links it to the neighbours that share its faces. The vertex order must

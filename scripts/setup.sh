@@ -9,7 +9,7 @@ packages=(
   libhidapi-dev libusb-1.0-0-dev libglfw3-dev libgl-dev libegl-dev libimgui-dev libstb-dev
   libegl-mesa0 libgl1-mesa-dri xvfb xauth
   doctest-dev libbenchmark-dev clang libclang-rt-14-dev
-  gmsh tetgen python3-meshio python3-matplotlib
+  libteem-dev gmsh tetgen python3-meshio python3-matplotlib
 )
 
 missing=()

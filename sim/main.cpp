@@ -119,6 +119,11 @@ int main(int argc, char** argv) {
   make_log_cmd->add_option("--cross", motion.cross, "Then cut again across the middle, this long [m]")
       ->check(CLI::NonNegativeNumber);
 
+  std::string make_volume_out;
+  auto* make_volume_cmd = app.add_subcommand(
+      "make-volume", "Write the layered seismic data set of the volume data scenario (NRRD)");
+  make_volume_cmd->add_option("--out", make_volume_out, "NRRD file to write (.nrrd)")->required();
+
   std::string profiles_dir = bundled("config/devices").string();
   bool all_devices = false;
   auto* devices_cmd = app.add_subcommand("devices", "List attached HID devices and the profile each matches");
@@ -192,6 +197,7 @@ int main(int argc, char** argv) {
     if (*inspect_cmd) return cmd_inspect(mesh_path, json);
     if (*states_cmd) return cmd_states(table_path, dot);
     if (*make_log_cmd) return cmd_make_log(scenario, make_log_out, motion);
+    if (*make_volume_cmd) return cmd_make_volume(make_volume_out);
     if (*devices_cmd) return cmd_devices(profiles_dir, all_devices);
     if (*record_cmd) return cmd_record(rec);
     if (*train_cmd) return cmd_train(tr);

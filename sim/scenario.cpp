@@ -58,6 +58,7 @@ class Parser : public YamlReader {
   void tool(const Value& v, ToolSettings& out) const;
   void device(const Value& v, DeviceSettings& out) const;
   void simulation(const Value& v, SimulationSettings& out) const;
+  void volume(const Value& v, VolumeSource& out) const;
   void check_against_mesh(const Scenario& s, const Map& top) const;
 
  private:
@@ -213,9 +214,11 @@ void Parser::materials(const Value& v, Scenario& s) const {
 void Parser::tissue(const Value& v, TissueSection& out) const {
   const Map m(*this, v);
   m.only({"model", "rate", "solver", "gravity", "volume_springs"});
-  if (const auto x = m.get("model"))
-    out.model =
-        choice(*x, {"corotational", "mass_spring"}) == 0 ? TissueKind::Corotational : TissueKind::MassSpring;
+  if (const auto x = m.get("model")) {
+    const int model = choice(*x, {"corotational", "mass_spring", "rigid"});
+    out.model = model == 1 ? TissueKind::MassSpring : TissueKind::Corotational;
+    out.rigid = model == 2;
+  }
   if (const auto x = m.get("rate")) out.rate = positive(*x, 10000.0);
   if (const auto x = m.get("solver")) {
     const Map sm(*this, *x);
@@ -358,12 +361,53 @@ void Parser::simulation(const Value& v, SimulationSettings& out) const {
   if (const auto x = m.get("cut_recursion_depth")) out.cut_recursion_depth = in_range(*x, integer(*x), 0, 32);
 }
 
+void Parser::volume(const Value& v, VolumeSource& out) const {
+  const Map m(*this, v);
+  m.only({"file", "field", "box", "range", "colour_map"});
+  out.where = yaml_location(v.key_mark);
+  const Value file = m.require("file");
+  const std::string name = string(file);
+  out.file = resolve(name);
+  std::string ext = out.file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (ext != ".nrrd" && ext != ".nhdr")
+    fail(file, "unsupported volume file '" + name + "', expected .nrrd or .nhdr (NRRD)");
+  if (!fs::is_regular_file(out.file)) fail(file, "volume file not found: " + out.file.string());
+  if (const auto x = m.get("field")) {
+    out.field = string(*x);
+    const bool word = !out.field.empty() &&
+                      std::all_of(out.field.begin(), out.field.end(),
+                                  [](unsigned char c) { return std::isalnum(c) || c == '_' || c == '-'; });
+    if (!word) fail(*x, "expected a name of letters, digits, '_' or '-'");
+    if (out.field == "region" || out.field == "displacement")
+      fail(*x, "'" + out.field + "' is an array mesh.vtu already holds; choose another name");
+  }
+  if (const auto x = m.get("box")) {
+    const Map b(*this, *x);
+    b.only({"min", "max"});
+    const Value vmax = b.require("max");
+    const Vec3 lo = vector<3>(b.require("min")), hi = vector<3>(vmax);
+    for (int a = 0; a < 3; ++a)
+      if (!(hi[a] > lo[a] && hi[a] - lo[a] <= kMaxScenarioLength))
+        fail(vmax, "max - min = " + format(hi[a] - lo[a]) + " on axis " + "xyz"[a] +
+                       ", expected 0 < max - min <= " + format(kMaxScenarioLength) + " [m]");
+    out.box = std::array<Vec3, 2>{lo, hi};
+  }
+  if (const auto x = m.get("range")) {
+    const auto r = vector<2>(*x);
+    check(*x, r[0] < r[1], "range[0] < range[1]");
+    out.range = std::array<double, 2>{r[0], r[1]};
+  }
+  if (const auto x = m.get("colour_map"))
+    out.colour_map = choice(*x, {"viridis", "seismic"}) == 0 ? ColourMap::Viridis : ColourMap::Seismic;
+}
+
 // Checks that need the mesh: region names, and a task inside a generated mesh.
 void Parser::check_against_mesh(const Scenario& s, const Map& top) const {
   if (s.mesh.kind == MeshKind::File) return;
   std::vector<int> ids;
   for (const auto& [name, id] : generated_region_ids(s)) ids.push_back(id);
-  (void)resolve_materials(s, generated_region_ids(s), ids);
+  if (!s.tissue.rigid || !s.materials.empty()) (void)resolve_materials(s, generated_region_ids(s), ids);
 
   if (!s.task) return;
   Vec3 lo, hi;
@@ -422,7 +466,7 @@ Scenario Parser::parse(const std::string& text) const {
   };
   (void)read([&] {
     top.only({"name", "description", "mesh", "materials", "tissue", "fixed", "tool", "device", "simulation",
-              "task", "log"});
+              "task", "volume", "log"});
   });
 
   Scenario s;
@@ -432,10 +476,12 @@ Scenario Parser::parse(const std::string& text) const {
     if (const auto x = top.get("description")) s.description = string(*x);
   });
   bool whole = read([&] { mesh(top.require("mesh"), s.mesh); });
-  whole = read([&] { materials(top.require("materials"), s); }) && whole;
   (void)read([&] {
     if (const auto x = top.get("tissue")) tissue(*x, s.tissue);
   });
+  // Rigid tissue is never stepped: its regions need no material.
+  if (!s.tissue.rigid || top.get("materials"))
+    whole = read([&] { materials(top.require("materials"), s); }) && whole;
   (void)read([&] {
     if (const auto x = top.get("fixed")) fixed(*x, s.fixed);
   });
@@ -453,6 +499,19 @@ Scenario Parser::parse(const std::string& text) const {
           }) &&
           whole;
   (void)read([&] {
+    if (const auto x = top.get("volume")) {
+      VolumeSource v;
+      volume(*x, v);
+      s.volume = std::move(v);
+    }
+  });
+  (void)read([&] {
+    if (s.tissue.rigid && s.tool.contact == ToolContactKind::Indent)
+      fail(top.require("tool"),
+           "contact: indent presses the tissue in, which rigid tissue (tissue.model: rigid) "
+           "cannot; use contact: none");
+  });
+  (void)read([&] {
     if (const auto x = top.get("log")) {
       const std::string p = string(*x);
       if (p.empty()) fail(*x, "expected a file path");
@@ -462,7 +521,7 @@ Scenario Parser::parse(const std::string& text) const {
   // The checks against the mesh need the mesh, the materials and the task read whole.
   if (whole)
     (void)read([&] {
-      s.materials_where = yaml_location(top.require("materials").key_mark);
+      if (const auto x = top.get("materials")) s.materials_where = yaml_location(x->key_mark);
       check_against_mesh(s, top);
     });
   throw_input_errors(std::move(errors));

@@ -19,6 +19,7 @@
 #include "fem/material.hpp"
 #include "mesh/generators.hpp"
 #include "mesh/mesh.hpp"
+#include "sim/snapshot.hpp"
 
 namespace scalpel {
 
@@ -49,6 +50,9 @@ struct RegionMaterial {
 
 struct TissueSection {
   TissueKind model = TissueKind::Corotational;
+  // `model: rigid`: the tissue does not move and is never stepped; cuts open no gap. For cutting
+  // volume data and sculpting (paper sections 7.1 and 7.3); materials are then optional.
+  bool rigid = false;
   double rate = 60.0;                    // [Hz] tissue steps per second, time step 1 / rate
   double cg_tolerance = 1e-6;            // [-] CG stops at |r| <= tolerance * |b|
   int cg_max_iterations = 200;           // CG iterations per step
@@ -153,6 +157,19 @@ struct Task {
   SourceLocation protected_where;  // of the `protected` key
 };
 
+// A scalar volume attached to the mesh (paper section 7.1): sampled onto the nodes at load as the
+// mesh field `field`, carried through every cut, written as point data and shown through a colour map.
+struct VolumeSource {
+  std::filesystem::path file;  // .nrrd or .nhdr, resolved
+  std::string field = "value";
+  // [m] where the grid's first and last samples lie; none: the file's own geometry.
+  std::optional<std::array<Vec3, 2>> box;
+  // The values the colour map's ends stand for; none: the volume's smallest and largest.
+  std::optional<std::array<double, 2>> range;
+  ColourMap colour_map = ColourMap::Viridis;
+  SourceLocation where;  // of the `volume` key
+};
+
 struct Scenario {
   std::filesystem::path file;  // the scenario file, as given
   std::string name;
@@ -166,6 +183,7 @@ struct Scenario {
   DeviceSettings device;
   SimulationSettings simulation;
   std::optional<Task> task;
+  std::optional<VolumeSource> volume;
   std::optional<std::filesystem::path> log;  // default pose log, resolved
 };
 

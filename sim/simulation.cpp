@@ -7,14 +7,53 @@
 #include <map>
 #include <numeric>
 #include <set>
+#include <sstream>
 
 #include "base/input_error.hpp"
 #include "mesh/manifold.hpp"
 #include "mesh/overlap.hpp"
+#include "mesh/volume.hpp"
 
 namespace scalpel {
 
+namespace {
+
+// The scenario's volume, placed by its `box` when it has one, sampled onto the mesh's nodes. A node
+// farther outside the grid than one sample spacing is an error: the volume does not cover the mesh.
+void attach_volume(const Scenario& scenario, TetMesh& mesh) {
+  const VolumeSource& source = *scenario.volume;
+  ScalarVolume volume = read_nrrd_volume(source.file);
+  if (source.box) {
+    volume.origin = (*source.box)[0];
+    for (int a = 0; a < 3; ++a)
+      volume.spacing[a] = ((*source.box)[1][a] - (*source.box)[0][a]) /
+                          static_cast<double>(volume.size[static_cast<std::size_t>(a)] - 1);
+  }
+  const double slack = volume.spacing.maxCoeff();
+  for (const NodeId n : mesh.nodes()) {
+    const Vec3& x = mesh.rest(n);
+    if (volume.distance_outside(x) > slack) {
+      const Vec3 hi = volume.far_corner();
+      std::ostringstream msg;
+      msg << "the volume spans [" << volume.origin.x() << ", " << hi.x() << "] x [" << volume.origin.y()
+          << ", " << hi.y() << "] x [" << volume.origin.z() << ", " << hi.z()
+          << "] [m] and does not cover the mesh: node " << n.index << " at [" << x.x() << ", " << x.y()
+          << ", " << x.z() << "] lies " << volume.distance_outside(x) << " m outside it";
+      throw InputError(scenario.file.string(), source.where.line, source.where.column, "volume", msg.str());
+    }
+  }
+  (void)sample_volume_onto(mesh, volume, source.field);
+}
+
+}  // namespace
+
 ScenarioMesh load_scenario_mesh(const Scenario& scenario) {
+  ScenarioMesh out = read_scenario_mesh(scenario);
+  if (scenario.volume) attach_volume(scenario, out.mesh);
+  return out;
+}
+
+ScenarioMesh read_scenario_mesh(const Scenario& scenario) {
   ScenarioMesh out;
   if (scenario.mesh.kind != MeshKind::File) {
     out.mesh = build_generated_mesh(scenario);
@@ -48,6 +87,25 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   initial_volume_ = mesh_.total_rest_volume();
   wound_meter_ = std::make_unique<WoundMeter>(mesh_);
   snapshots_ = std::make_unique<SnapshotBuilder>(mesh_);
+  if (const auto& volume = scenario_.volume) {
+    const int id = mesh_.field_id(volume->field);
+    const std::vector<double>& values = mesh_.field_values(id);
+    FrameSnapshot::Field shown{volume->field, 0.0, 1.0, volume->colour_map};
+    if (volume->range) {
+      shown.lo = (*volume->range)[0];
+      shown.hi = (*volume->range)[1];
+    } else {
+      // The range the mesh's nodes took; a cut only interpolates between them.
+      shown.lo = std::numeric_limits<double>::infinity();
+      shown.hi = -shown.lo;
+      for (const NodeId n : mesh_.nodes()) {
+        shown.lo = std::min(shown.lo, values[n.index]);
+        shown.hi = std::max(shown.hi, values[n.index]);
+      }
+      if (!(shown.hi > shown.lo)) shown.hi = shown.lo + 1.0;
+    }
+    snapshots_->show_field(id, shown);
+  }
   CutOptions cut_options;
   cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
   cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
@@ -72,7 +130,13 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   }
 
   // Tissue (docs/tissue.md): materials by region id, the scenario's solver, the fixed boundary.
-  const std::map<int, Material> by_region = resolve_materials(scenario_, m.regions, mesh_);
+  // Rigid tissue without materials: every region takes the default one, which it never uses.
+  std::map<int, Material> by_region;
+  if (scenario_.tissue.rigid && scenario_.materials.empty()) {
+    for (const TetId t : mesh_.tets()) by_region[mesh_.region(t)] = Material{};
+  } else {
+    by_region = resolve_materials(scenario_, m.regions, mesh_);
+  }
   std::vector<Material> materials(by_region.empty() ? 1 : static_cast<size_t>(by_region.rbegin()->first) + 1);
   for (const auto& [region, material] : by_region) materials[static_cast<size_t>(region)] = material;
   TissueSettings settings;
@@ -354,11 +418,11 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     tissue_->clear_external_forces();  // the blade is on the tissue: no edge drags it
     contact_ = {};
     indentation_->follow(blade(last_).tip, mesh_);
-  } else {
+  } else if (!scenario_.tissue.rigid) {
     push_tissue();
   }
   const double dt = 1.0 / scenario_.tissue.rate;
-  while (tissue_time_ + dt <= t + 1e-12) {
+  while (!scenario_.tissue.rigid && tissue_time_ + dt <= t + 1e-12) {
     const auto start = std::chrono::steady_clock::now();
     tissue_stats_.push_back(tissue_->step(dt));
     tissue_seconds_.push_back(

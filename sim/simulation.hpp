@@ -42,7 +42,11 @@ struct ScenarioMesh {
   RegionIds regions;       // region name -> id
   MeshFileInfo file_info;  // a mesh file's: re-oriented tetrahedra, elements left out
 };
+// With the scenario's volume sampled onto its nodes (mesh/volume.hpp). InputError for a volume that
+// cannot be read or does not cover the mesh.
 [[nodiscard]] ScenarioMesh load_scenario_mesh(const Scenario& scenario);
+// The mesh alone, without the volume.
+[[nodiscard]] ScenarioMesh read_scenario_mesh(const Scenario& scenario);
 
 class Simulation {
  public:

@@ -66,6 +66,8 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
   out.surface.clear();
   out.edges.clear();
   std::vector<SurfaceVertex>& s = out.surface;
+  const std::vector<double>* field = field_id_ >= 0 ? &mesh.field_values(field_id_) : nullptr;
+  out.field = field_;
   // Two passes over the boundary faces, wound first, so a renderer can draw the kinds apart.
   const auto& x = mesh.positions();
   const auto& rest = mesh.rest_positions();
@@ -80,7 +82,10 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
         if (skin != (pass == 1)) continue;
         const Vec3 n = (x[v[1]] - x[v[0]]).cross(x[v[2]] - x[v[0]]).normalized();
         const float region = skin ? static_cast<float>(mesh.region(h)) : SurfaceVertex::kWoundRegion;
-        for (const std::uint32_t i : v) s.push_back({to_float(x[i]), to_float(n), region});
+        for (const std::uint32_t i : v) {
+          const float value = field ? static_cast<float>((*field)[i]) : 0.0f;
+          s.push_back({to_float(x[i]), to_float(n), region, value});
+        }
       }
     }
     if (pass == 0) out.wound_vertices = s.size();

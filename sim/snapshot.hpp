@@ -11,6 +11,8 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "mesh/mesh.hpp"
@@ -19,6 +21,10 @@ namespace scalpel {
 
 class Simulation;
 
+// How a scalar field's values become colours: viridis (sequential, perceptually uniform) or a
+// blue-white-red diverging map centred on the middle of the range (seismic amplitudes).
+enum class ColourMap { Viridis, Seismic };
+
 // One vertex of a surface triangle, ready for a vertex buffer: position and face normal (current
 // configuration, float), and the region id of a skin face or kWoundRegion for a wound face.
 struct SurfaceVertex {
@@ -26,6 +32,7 @@ struct SurfaceVertex {
   std::array<float, 3> position{};
   std::array<float, 3> normal{};
   float region = 0.0f;
+  float value = 0.0f;  // the shown field's value at the vertex (FrameSnapshot::field), else 0
 };
 
 struct FrameSnapshot {
@@ -49,6 +56,14 @@ struct FrameSnapshot {
   };
   std::vector<Target> targets;
 
+  // The scalar field the surface is coloured by (SurfaceVertex::value), none: by region.
+  struct Field {
+    std::string name;
+    double lo = 0.0, hi = 1.0;  // the values at the colour map's ends
+    ColourMap colour_map = ColourMap::Viridis;
+  };
+  std::optional<Field> field;
+
   // Bounding box of the uncut mesh's rest positions, for framing views [m].
   Vec3 bounds_min = Vec3::Zero(), bounds_max = Vec3::Zero();
 
@@ -60,6 +75,12 @@ struct FrameSnapshot {
 class SnapshotBuilder {
  public:
   explicit SnapshotBuilder(const TetMesh& uncut);
+
+  // Colour the surface by mesh field `id` (its values go to SurfaceVertex::value) as `field` says.
+  void show_field(int id, FrameSnapshot::Field field) {
+    field_id_ = id;
+    field_ = std::move(field);
+  }
 
   // The surface (and with `with_edges` the edges) of `mesh` now, into `out`.
   void fill_surface(const TetMesh& mesh, bool with_edges, FrameSnapshot& out) const;
@@ -81,6 +102,8 @@ class SnapshotBuilder {
   std::vector<std::uint32_t> boundary_index_;  // by original slot: index into boundary_, or none
   std::vector<Original> boundary_;
   Vec3 bounds_min_ = Vec3::Zero(), bounds_max_ = Vec3::Zero();
+  int field_id_ = -1;
+  std::optional<FrameSnapshot::Field> field_;
 };
 
 }  // namespace scalpel

@@ -138,6 +138,19 @@ std::vector<View> replay_views(const FrameSnapshot& s, double aspect) {
   section.options.clip = Eigen::Vector4d(-along.x(), -along.y(), 0.0, along.head<2>().dot(focus.head<2>()));
   section.options.target = false;
   views.push_back(section);
+
+  // Volume data (paper section 7.1, Fig. 14): the outer surface see-through, so the cut faces show
+  // the field inside; then the same with the tetrahedra's edges (the snapshot must hold them).
+  if (s.field) {
+    View inside{"inside", oblique.camera, {}};
+    inside.options.transparent_skin = true;
+    inside.options.target = false;
+    views.push_back(inside);
+    View mesh = inside;
+    mesh.name = "mesh";
+    mesh.options.wireframe = true;
+    views.push_back(mesh);
+  }
   return views;
 }
 
@@ -169,7 +182,7 @@ ReplayPictures::ReplayPictures(PictureOptions options)
 void ReplayPictures::operator()(const Simulation& sim, std::size_t frame, bool last) {
   const bool sequence = options_.every > 0 && frame % options_.every == 0;
   if (!sequence && !last) return;
-  sim.snapshot(snapshot_);
+  sim.snapshot(snapshot_, /*with_edges=*/last && sim.scenario().volume.has_value());
   snapshot_.frame = frame;
   const auto views = replay_views(snapshot_, static_cast<double>(options_.width) / options_.height);
   if (sequence) {

@@ -61,7 +61,9 @@ class OffscreenRenderer {
 // - top: straight down, orthographic (a pixel is a fixed square of the skin), the whole patch;
 // - oblique: from the front and above, on the target;
 // - section: across the middle of the target path, the tissue beyond the plane clipped away, so
-//   the incision's depth and its gape show in profile.
+//   the incision's depth and its gape show in profile;
+// - with a field (volume data): inside, the oblique view with the outer surface see-through, and
+//   mesh, the same with the tetrahedra's edges.
 struct View {
   std::string name;
   Camera camera;

@@ -1,8 +1,13 @@
 #include "viewer/renderer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
+#include <cstring>
 #include <string>
+
+#include <stb_easy_font.h>
 
 #include <Eigen/Geometry>
 
@@ -21,6 +26,7 @@ constexpr const char* kSurfaceVertex = R"(#version 330 core
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in float a_region;
+layout(location = 3) in float a_value;
 uniform mat4 u_mvp;
 uniform mat4 u_view;
 uniform vec4 u_clip;
@@ -28,8 +34,11 @@ uniform vec3 u_regions[4];
 uniform vec3 u_wound;
 uniform vec3 u_section;
 uniform float u_alpha;
+uniform int u_field;
 out vec4 v_front;
 out vec4 v_back;
+out float v_value;
+out vec2 v_shade;
 void main() {
   gl_Position = u_mvp * vec4(a_position, 1.0);
   gl_ClipDistance[0] = dot(u_clip, vec4(a_position, 1.0));
@@ -38,19 +47,42 @@ void main() {
   vec3 base = wound ? u_wound : u_regions[clamp(region, 0, 3)];
   vec3 n = normalize(mat3(u_view) * a_normal);
   vec3 light = normalize(vec3(0.35, 0.55, 1.0));
-  vec3 colour = base * (0.35 + 0.65 * max(dot(n, light), 0.0));
+  float diffuse = 0.35 + 0.65 * max(dot(n, light), 0.0);
+  vec3 colour = base * diffuse;
   // The wound is wet: a small highlight.
-  if (wound) colour += vec3(0.25) * pow(max(dot(reflect(-light, n), vec3(0.0, 0.0, 1.0)), 0.0), 24.0);
+  float highlight = wound ? 0.25 * pow(max(dot(reflect(-light, n), vec3(0.0, 0.0, 1.0)), 0.0), 24.0) : 0.0;
+  colour += vec3(highlight);
   v_front = vec4(colour, wound ? 1.0 : u_alpha);
   v_back = vec4(wound ? u_section : 0.8 * base, 1.0);
+  // With a field, the fragment stage looks the colour up from the interpolated value (interpolated
+  // colours would blend across the map); the lighting stays per vertex.
+  v_value = a_value;
+  v_shade = vec2(diffuse, u_field != 0 && wound ? highlight : 0.0);
 }
 )";
 
 constexpr const char* kSurfaceFragment = R"(#version 330 core
 in vec4 v_front;
 in vec4 v_back;
+in float v_value;
+in vec2 v_shade;
+uniform int u_field;
+uniform vec2 u_range;
+uniform vec3 u_colour_map[9];
 out vec4 o_colour;
-void main() { o_colour = gl_FrontFacing ? v_front : v_back; }
+vec3 colour_map(float value) {
+  float t = 8.0 * clamp((value - u_range.x) / (u_range.y - u_range.x), 0.0, 1.0);
+  int i = min(int(floor(t)), 7);
+  return mix(u_colour_map[i], u_colour_map[i + 1], t - float(i));
+}
+void main() {
+  if (u_field == 0) {
+    o_colour = gl_FrontFacing ? v_front : v_back;
+    return;
+  }
+  vec3 base = colour_map(v_value);
+  o_colour = gl_FrontFacing ? vec4(base * v_shade.x + vec3(v_shade.y), v_front.a) : vec4(0.8 * base, 1.0);
+}
 )";
 
 constexpr const char* kFlatVertex = R"(#version 330 core
@@ -122,6 +154,17 @@ constexpr double kBladeRadius = 0.3e-3, kHandleRadius = 1.2e-3, kHandleLength = 
 
 }  // namespace
 
+std::array<float, 3> Palette::colour(ColourMap map, double value, double lo, double hi) {
+  const ColourMapStops& c = stops(map);
+  const double t = 8.0 * std::clamp((value - lo) / (hi - lo), 0.0, 1.0);
+  const int i = std::min(static_cast<int>(std::floor(t)), 7);
+  const auto f = static_cast<float>(t - i);
+  std::array<float, 3> out{};
+  for (std::size_t k = 0; k < 3; ++k)
+    out[k] = c[static_cast<size_t>(i)][k] * (1.0f - f) + c[static_cast<size_t>(i) + 1][k] * f;
+  return out;
+}
+
 Renderer::Renderer() {
   surface_program_ = link(kSurfaceVertex, kSurfaceFragment);
   flat_program_ = link(kFlatVertex, kFlatFragment);
@@ -137,7 +180,9 @@ Renderer::Renderer() {
                         reinterpret_cast<void*>(offsetof(SurfaceVertex, normal)));
   glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, stride,
                         reinterpret_cast<void*>(offsetof(SurfaceVertex, region)));
-  for (GLuint i = 0; i < 3; ++i) glEnableVertexAttribArray(i);
+  glVertexAttribPointer(3, 1, GL_FLOAT, GL_FALSE, stride,
+                        reinterpret_cast<void*>(offsetof(SurfaceVertex, value)));
+  for (GLuint i = 0; i < 4; ++i) glEnableVertexAttribArray(i);
 
   glGenVertexArrays(1, &flat_vao_);
   glGenBuffers(1, &flat_vbo_);
@@ -225,6 +270,53 @@ void Renderer::build_overlays(const FrameSnapshot& s, const RenderOptions& o) {
   }
 }
 
+void Renderer::build_legend(const FrameSnapshot::Field& field, int width, int height) {
+  legend_.clear();
+  auto rect = [&](float x0, float y0, float x1, float y1, const std::array<float, 4>& c) {
+    const std::array<std::array<float, 3>, 4> p{{{x0, y0, 0}, {x1, y0, 0}, {x1, y1, 0}, {x0, y1, 0}}};
+    for (const int k : {0, 1, 2, 0, 2, 3}) legend_.push_back({p[static_cast<size_t>(k)], c});
+  };
+  // stb_easy_font's glyphs are 7 pixels high at scale 1; drawn twice that size.
+  constexpr float kScale = 2.0f;
+  const std::array<float, 4> ink{0.92f, 0.93f, 0.95f, 1.0f};
+  auto text = [&](float x, float y, const std::string& str) {
+    text_.resize(str.size() * 300 + 64);
+    std::vector<char> copy(str.begin(), str.end());
+    copy.push_back('\0');
+    const int quads =
+        stb_easy_font_print(0, 0, copy.data(), nullptr, text_.data(), static_cast<int>(text_.size()));
+    for (int q = 0; q < quads; ++q) {
+      float v[4][2];
+      for (int k = 0; k < 4; ++k) std::memcpy(v[k], text_.data() + (q * 4 + k) * 16, sizeof v[k]);
+      rect(x + kScale * v[0][0], y + kScale * v[0][1], x + kScale * v[2][0], y + kScale * v[2][1], ink);
+    }
+  };
+  auto label = [](double value) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", value);
+    return std::string(buf);
+  };
+  const auto h = static_cast<float>(height), w = static_cast<float>(width);
+  const float bar_w = 0.025f * w, bar_x1 = w - 0.03f * w, bar_x0 = bar_x1 - bar_w;
+  const float top = 0.22f * h, bottom = 0.78f * h;
+  const float label_w = kScale * 6.0f * 8.0f;  // eight glyphs
+  rect(bar_x0 - label_w - 24.0f, top - 56.0f, w - 0.01f * w, bottom + 20.0f, {0.05f, 0.06f, 0.08f, 0.75f});
+  text(bar_x0 - label_w - 12.0f, top - 40.0f, field.name);
+  constexpr int kSegments = 64;
+  for (int k = 0; k < kSegments; ++k) {
+    const float y0 = bottom - (bottom - top) * static_cast<float>(k + 1) / kSegments;
+    const float y1 = bottom - (bottom - top) * static_cast<float>(k) / kSegments;
+    const double v = field.lo + (field.hi - field.lo) * (k + 0.5) / kSegments;
+    rect(bar_x0, y0, bar_x1, y1, rgba(Palette::colour(field.colour_map, v, field.lo, field.hi)));
+  }
+  for (int k = 0; k <= 4; ++k) {
+    const float y = bottom - (bottom - top) * static_cast<float>(k) / 4.0f;
+    rect(bar_x0 - 6.0f, y - 1.0f, bar_x0, y + 1.0f, ink);
+    const std::string l = label(field.lo + (field.hi - field.lo) * k / 4.0);
+    text(bar_x0 - 12.0f - kScale * 6.0f * static_cast<float>(l.size()), y - kScale * 3.5f, l);
+  }
+}
+
 void Renderer::draw_flat(unsigned mode, const std::vector<FlatVertex>& vertices) {
   if (vertices.empty()) return;
   glBindVertexArray(flat_vao_);
@@ -263,6 +355,14 @@ void Renderer::draw(const FrameSnapshot& s, const Camera& camera, const RenderOp
   glUniform3fv(glGetUniformLocation(surface_program_, "u_wound"), 1, Palette::kWound.data());
   glUniform3fv(glGetUniformLocation(surface_program_, "u_section"), 1, Palette::kSection.data());
   const GLint alpha = glGetUniformLocation(surface_program_, "u_alpha");
+  const bool field = s.field && o.field;
+  glUniform1i(glGetUniformLocation(surface_program_, "u_field"), field ? 1 : 0);
+  if (field) {
+    const Eigen::Vector2f range(static_cast<float>(s.field->lo), static_cast<float>(s.field->hi));
+    glUniform2fv(glGetUniformLocation(surface_program_, "u_range"), 1, range.data());
+    glUniform3fv(glGetUniformLocation(surface_program_, "u_colour_map"), 9,
+                 Palette::stops(s.field->colour_map)[0].data());
+  }
   glBindVertexArray(surface_vao_);
   glBindBuffer(GL_ARRAY_BUFFER, surface_vbo_);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(s.surface.size() * sizeof(SurfaceVertex)),
@@ -272,11 +372,19 @@ void Renderer::draw(const FrameSnapshot& s, const Camera& camera, const RenderOp
   const auto wound = static_cast<GLsizei>(s.wound_vertices);
   const auto skin = static_cast<GLsizei>(s.surface.size() - s.wound_vertices);
   glUniform1f(alpha, 1.0f);
+  // Without a section plane no back face can show (the surface is closed), and a crack's two lips
+  // lie on one another until it gapes: drawn, the back one would fight the front one for depth.
+  if (!o.clip) {
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+  }
   if (!o.transparent_skin) {
     glDrawArrays(GL_TRIANGLES, 0, wound + skin);
+    glDisable(GL_CULL_FACE);
   } else {
     // The wound opaque, then the skin's front faces blended over it without hiding it.
     glDrawArrays(GL_TRIANGLES, 0, wound);
+    glDisable(GL_CULL_FACE);
     glUniform1f(alpha, 0.25f);
     glEnable(GL_BLEND);
     glEnable(GL_CULL_FACE);
@@ -296,6 +404,21 @@ void Renderer::draw(const FrameSnapshot& s, const Camera& camera, const RenderOp
   glEnable(GL_BLEND);
   draw_flat(GL_LINES, lines_);
   draw_flat(GL_TRIANGLES, triangles_);
+  if (field && o.legend) {
+    // In pixels, y down, over everything.
+    build_legend(*s.field, width, height);
+    Eigen::Matrix4f pixels = Eigen::Matrix4f::Identity();
+    pixels(0, 0) = 2.0f / static_cast<float>(width);
+    pixels(1, 1) = -2.0f / static_cast<float>(height);
+    pixels(0, 3) = -1.0f;
+    pixels(1, 3) = 1.0f;
+    const Eigen::Vector4f none(0, 0, 0, 1);
+    glUniformMatrix4fv(glGetUniformLocation(flat_program_, "u_mvp"), 1, GL_FALSE, pixels.data());
+    glUniform4fv(glGetUniformLocation(flat_program_, "u_clip"), 1, none.data());
+    glDisable(GL_DEPTH_TEST);
+    draw_flat(GL_TRIANGLES, legend_);
+    glEnable(GL_DEPTH_TEST);
+  }
   glDisable(GL_BLEND);
   glDisable(GL_CLIP_DISTANCE0);
   glBindVertexArray(0);

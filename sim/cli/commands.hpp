@@ -25,6 +25,7 @@ int cmd_validate(const std::string& path, bool strict);
 int cmd_states(const std::string& table_path, bool dot);
 int cmd_inspect(const std::string& path, bool as_json);
 int cmd_make_log(const std::string& scenario_path, const std::string& out, const IncisionMotion& motion);
+int cmd_make_volume(const std::string& out);
 
 int cmd_devices(const std::string& profiles_dir, bool all);
 struct RecordArgs {

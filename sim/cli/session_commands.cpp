@@ -19,6 +19,7 @@
 #include "mesh/overlap.hpp"
 #include "mesh/quality.hpp"
 #include "mesh/validate.hpp"
+#include "mesh/volume.hpp"
 #include "sim/check.hpp"
 #include "sim/cli/commands.hpp"
 #include "sim/cli/common.hpp"
@@ -317,6 +318,13 @@ int cmd_make_log(const std::string& scenario_path, const std::string& out, const
   const Scenario scenario = load_scenario(scenario_path);
   check_output_file(out, "--out");
   write_task_log(scenario, out, motion);
+  std::cout << "wrote " << out << "\n";
+  return 0;
+}
+
+int cmd_make_volume(const std::string& out) {
+  check_output_file(out, "--out");
+  write_nrrd_volume(strata_volume(), out);
   std::cout << "wrote " << out << "\n";
   return 0;
 }

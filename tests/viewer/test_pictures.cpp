@@ -191,3 +191,60 @@ TEST_CASE("a picture is written as a PNG file") {
   CHECK(std::string(magic + 1, 3) == "PNG");
   CHECK_THROWS(write_png(im, fs::path("/nonexistent-folder/picture.png")));
 }
+
+TEST_CASE(
+    "volume data: seen through the outer surface, the cut faces show the field in its colour map, and the "
+    "colour bar its range" *
+    doctest::test_suite("slow")) {
+  const Scenario scenario =
+      load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/strata_volume.yaml");
+  FrameSnapshot last;
+  ReplayOptions options;
+  options.out_dir = fs::temp_directory_path() / "scalpelsim_test_volume_pictures";
+  options.on_frame = [&](const Simulation& sim, std::size_t, bool end) {
+    if (end) sim.snapshot(last);
+  };
+  REQUIRE(replay(scenario, *scenario.log, options).invariants_ok);
+  REQUIRE(last.field.has_value());
+  CHECK(last.field->name == "amplitude");
+  CHECK(last.field->lo == -1.0);
+  CHECK(last.field->hi == 1.0);
+
+  constexpr int kWidth = 600, kHeight = 450;
+  OffscreenRenderer renderer(kWidth, kHeight, 1);
+  const std::vector<View> views = replay_views(last, double(kWidth) / kHeight);
+  const auto inside =
+      std::find_if(views.begin(), views.end(), [](const View& v) { return v.name == "inside"; });
+  REQUIRE(inside != views.end());
+  CHECK(inside->options.transparent_skin);
+  // Bright, saturated blue and red: opaque faces in the map's two halves (the see-through skin is
+  // dim over the dark background). Left of the colour bar.
+  auto count = [&](const Image& im) {
+    std::array<std::size_t, 2> n{};
+    for (int y = 0; y < im.height; ++y)
+      for (int x = 0; x < im.width * 8 / 10; ++x) {
+        const std::uint8_t* p = im.at(x, y);
+        if (p[2] > 150 && p[0] < 90 && p[1] < 90) ++n[0];
+        if (p[0] > 150 && p[1] < 90 && p[2] < 90) ++n[1];
+      }
+    return n;
+  };
+  const Image coloured = renderer.render(last, inside->camera, inside->options);
+  const auto [blue, red] = count(coloured);
+  CHECK(blue > 500);
+  CHECK(red > 500);
+  // The colour bar: the top of the map at its top, the bottom at its bottom, unlit.
+  const int bar_x = kWidth - static_cast<int>(0.03 * kWidth) - static_cast<int>(0.0125 * kWidth);
+  const auto top = Palette::colour(ColourMap::Seismic, 1.0, -1.0, 1.0);
+  const auto bottom = Palette::colour(ColourMap::Seismic, -1.0, -1.0, 1.0);
+  const std::uint8_t* t = coloured.at(bar_x, static_cast<int>(0.225 * kHeight));
+  const std::uint8_t* b = coloured.at(bar_x, static_cast<int>(0.775 * kHeight));
+  for (std::size_t c = 0; c < 3; ++c) {
+    CHECK(std::abs(t[c] - top[c] * 255) < 12);
+    CHECK(std::abs(b[c] - bottom[c] * 255) < 12);
+  }
+  // Coloured by region instead: the cut faces are the wound's red, nothing blue.
+  RenderOptions by_region = inside->options;
+  by_region.field = false;
+  CHECK(count(renderer.render(last, inside->camera, by_region))[0] == 0);
+}
