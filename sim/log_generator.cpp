@@ -248,8 +248,14 @@ std::vector<ToolSample> generate_task_log(const Scenario& scenario, const Incisi
     append_incision(scenario, path, depth, offsets(path, depth, t0).get(), m, t0, next, out);
   };
   // The incisions in the task's order, each after the one before has lifted out.
-  for (const Incision& incision : task.incisions)
-    append(Path(incision.path, m.corner_radius), cut_depth(incision, m));
+  for (const Incision& incision : task.incisions) {
+    std::vector<Vec3> points = incision.path;
+    if (m.extend > 0.0 && points.size() >= 2) {
+      points.front() += m.extend * (points[0] - points[1]).normalized();
+      points.back() += m.extend * (points[points.size() - 1] - points[points.size() - 2]).normalized();
+    }
+    append(Path(points, m.corner_radius), cut_depth(incision, m));
+  }
   if (m.cross > 0.0) {
     const Incision& first = task.incisions.front();
     const Vec3 a = first.path.front(), b = first.path.back();
@@ -271,6 +277,8 @@ PoseLogMetadata task_log_metadata(const Scenario& scenario, const IncisionMotion
   if (m.tremble > 0.0) motion << ", tremble " << m.tremble << " m at " << m.tremble_frequency << " Hz";
   if (m.pull_back > 0.0) motion << ", pull-back " << m.pull_back << " m";
   if (m.cross > 0.0) motion << ", then a " << m.cross << " m incision across the middle";
+  if (m.extend > 0.0)
+    motion << ", from " << m.extend << " m before each path to " << m.extend << " m beyond it";
   std::ostringstream rate;
   rate << scenario.device.rate << " Hz";
   return {{"generator", "scalpelsim make-log"},

@@ -36,6 +36,10 @@ struct IncisionMotion {
   // plunge, cut and lift along a straight path of this length, turned 90 degrees about the middle of
   // the first path's end points (counter-clockwise seen from above).
   double cross = 0.0;  // [m]; 0: none
+  // Each incision starts and ends this far beyond its path's ends, along its first and last
+  // segments: the blade comes down outside the tissue and cuts in through its side, so a cut deeper
+  // than the tissue runs through it from side to side (volume data, sculpting).
+  double extend = 0.0;  // [m]; 0: none
   // Aim at the task's line and depth where the settled tissue has carried them (the task is drawn on
   // the tissue at rest; prestressed skin thins and its surface sinks before the blade arrives), as a
   // surgeon follows the skin. Off: the path and depth as written, below the plane z of the path.

@@ -118,6 +118,12 @@ int main(int argc, char** argv) {
       "Aim at the task's path and depth as written, not where the settled tissue carried them");
   make_log_cmd->add_option("--cross", motion.cross, "Then cut again across the middle, this long [m]")
       ->check(CLI::NonNegativeNumber);
+  make_log_cmd->add_option("--depth", motion.depth, "Tip depth below the surface [m] (default: the task's)")
+      ->check(CLI::PositiveNumber);
+  make_log_cmd
+      ->add_option("--extend", motion.extend,
+                   "Start and end each incision this far beyond its path's ends [m]")
+      ->check(CLI::NonNegativeNumber);
 
   std::string make_volume_out;
   auto* make_volume_cmd = app.add_subcommand(

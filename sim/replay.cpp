@@ -367,7 +367,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   const CutTotals& totals = cutter.totals();
   const HapticStats hs = loop.stats();
 
-  if (displaced_frame > 0) {
+  // Rigid tissue moves only as the scenario's moves take its pieces, on purpose.
+  if (displaced_frame > 0 && !scenario.tissue.rigid) {
     std::ostringstream m;
     m << "tissue moved up to " << displacement_max << " m from where it started, beyond "
       << 100 * kDisplacementLimit << " % of the mesh's diagonal (" << diagonal << " m) from frame "
@@ -462,7 +463,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
         break;
       }
     report["tissue"] = {
-        {"model", to_string(scenario.tissue.model)},
+        {"model", scenario.tissue.rigid ? "rigid" : to_string(scenario.tissue.model)},
         {"rate", scenario.tissue.rate},
         {"steps", steps.size()},
         {"converged", converged},
@@ -500,6 +501,22 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       report["tool_contact"]["indentation"] = indentation_json(*press, sim);
   }
   if (const auto score = sim.task_score()) report["task"] = task_json(*score);
+  if (!scenario.moves.empty()) {
+    nlohmann::ordered_json moves = nlohmann::ordered_json::array();
+    for (const Simulation::MoveRecord& m : sim.moves())
+      moves.push_back({{"time", m.time},
+                       {"kind", m.undo ? "undo" : "move"},
+                       {"done", m.refused.empty()},
+                       {"refused", m.refused},
+                       {"tetrahedra", m.tets},
+                       {"rest_volume_mm3", m.rest_volume * 1e9}});
+    report["piece_moves"] = moves;
+    for (std::size_t i = 0; i < sim.moves().size(); ++i)
+      if (!sim.moves()[i].refused.empty())
+        warn("piece_move_refused", "moves[" + std::to_string(i) + "] at " +
+                                       std::to_string(sim.moves()[i].time) +
+                                       " s did nothing: " + sim.moves()[i].refused);
+  }
   report["warnings"] = warnings;
   // Tissue steps right after a cut (the mesh changed since the step before) and the others.
   std::vector<double> after_cut, without_cut;

@@ -59,6 +59,7 @@ class Parser : public YamlReader {
   void device(const Value& v, DeviceSettings& out) const;
   void simulation(const Value& v, SimulationSettings& out) const;
   void volume(const Value& v, VolumeSource& out) const;
+  void moves(const Value& v, std::vector<PieceMove>& out) const;
   void check_against_mesh(const Scenario& s, const Map& top) const;
 
  private:
@@ -402,6 +403,46 @@ void Parser::volume(const Value& v, VolumeSource& out) const {
     out.colour_map = choice(*x, {"viridis", "seismic"}) == 0 ? ColourMap::Viridis : ColourMap::Seismic;
 }
 
+void Parser::moves(const Value& v, std::vector<PieceMove>& out) const {
+  double last = 0.0;
+  for (const Value& item : list(v, "a list of moves ({at, point, translate, rotate} or {at, undo: true})")) {
+    const Map m(*this, item);
+    PieceMove move;
+    move.where = yaml_location(item.mark);
+    const Value at = m.require("at");
+    move.at = number(at);
+    check(at, move.at >= 0.0 && move.at <= kMaxSessionSeconds,
+          "0 <= at <= " + format(kMaxSessionSeconds) + " [s]");
+    check(at, move.at >= last, "at >= the move before's (moves are listed in time order)");
+    last = move.at;
+    if (const auto u = m.get("undo")) {
+      m.only({"at", "undo"});
+      move.undo = boolean(*u);
+      if (!move.undo) fail(*u, "expected true (a move is given by point, translate and rotate)");
+      out.push_back(move);
+      continue;
+    }
+    m.only({"at", "point", "translate", "rotate"});
+    move.point = vector<3>(m.require("point"));
+    if (const auto t = m.get("translate")) {
+      move.translation = vector<3>(*t);
+      check(*t, move.translation.norm() <= kMaxScenarioLength,
+            "|translate| <= " + format(kMaxScenarioLength) + " [m]");
+    }
+    if (const auto r = m.get("rotate")) {
+      const Map rm(*this, *r);
+      rm.only({"axis", "angle_deg"});
+      const Value vaxis = rm.require("axis");
+      const Vec3 axis = vector<3>(vaxis);
+      check(vaxis, axis.norm() > 0.0, "a non-zero axis");
+      const double angle = number(rm.require("angle_deg"));
+      move.rotation =
+          Eigen::Quaterniond(Eigen::AngleAxisd(angle * std::numbers::pi / 180.0, axis.normalized()));
+    }
+    out.push_back(move);
+  }
+}
+
 // Checks that need the mesh: region names, and a task inside a generated mesh.
 void Parser::check_against_mesh(const Scenario& s, const Map& top) const {
   if (s.mesh.kind == MeshKind::File) return;
@@ -466,7 +507,7 @@ Scenario Parser::parse(const std::string& text) const {
   };
   (void)read([&] {
     top.only({"name", "description", "mesh", "materials", "tissue", "fixed", "tool", "device", "simulation",
-              "task", "volume", "log"});
+              "task", "volume", "moves", "log"});
   });
 
   Scenario s;
@@ -503,6 +544,14 @@ Scenario Parser::parse(const std::string& text) const {
       VolumeSource v;
       volume(*x, v);
       s.volume = std::move(v);
+    }
+  });
+  (void)read([&] {
+    if (const auto x = top.get("moves")) {
+      if (!s.tissue.rigid)
+        fail(x->key_mark, x->path,
+             "moving pieces needs rigid tissue (tissue.model: rigid): a tissue solve would fight it");
+      moves(*x, s.moves);
     }
   });
   (void)read([&] {

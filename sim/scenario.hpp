@@ -170,6 +170,19 @@ struct VolumeSource {
   SourceLocation where;  // of the `volume` key
 };
 
+// A rigid move of a piece at a time of the session (volume data, paper section 7.1): the piece that
+// holds `point` (its tetrahedra, and all joined to them by a node), turned by `rotation` about its
+// centroid, then shifted by `translation`; or, with `undo`, the last move still standing taken back.
+// Only with rigid tissue.
+struct PieceMove {
+  double at = 0.0;  // [s] session time: applied at the end of the first frame at or after it
+  bool undo = false;
+  Vec3 point = Vec3::Zero();        // [m] where the piece is now
+  Vec3 translation = Vec3::Zero();  // [m]
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  SourceLocation where;
+};
+
 struct Scenario {
   std::filesystem::path file;  // the scenario file, as given
   std::string name;
@@ -184,6 +197,7 @@ struct Scenario {
   SimulationSettings simulation;
   std::optional<Task> task;
   std::optional<VolumeSource> volume;
+  std::vector<PieceMove> moves;              // in time order
   std::optional<std::filesystem::path> log;  // default pose log, resolved
 };
 

@@ -410,8 +410,133 @@ void Simulation::hold_severed_pieces(double t) {
     }
 }
 
+std::vector<std::uint32_t> Simulation::piece_of_node(std::uint32_t node) const {
+  std::vector<std::uint8_t> seen_node(mesh_.node_capacity(), 0), seen_tet(mesh_.tet_capacity(), 0);
+  std::vector<std::uint32_t> nodes{node}, stack{node};
+  seen_node[node] = 1;
+  while (!stack.empty()) {
+    const std::uint32_t n = stack.back();
+    stack.pop_back();
+    for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(n))) {
+      if (seen_tet[t]) continue;
+      seen_tet[t] = 1;
+      for (const std::uint32_t m : mesh_.tet_vertex_indices(t))
+        if (!seen_node[m]) {
+          seen_node[m] = 1;
+          nodes.push_back(m);
+          stack.push_back(m);
+        }
+    }
+  }
+  std::sort(nodes.begin(), nodes.end());
+  return nodes;
+}
+
+std::vector<std::uint32_t> Simulation::piece_at(const Vec3& point) const {
+  const auto& x = mesh_.positions();
+  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t) {
+    if (!mesh_.tet_slot_alive(t)) continue;
+    const auto& v = mesh_.tet_vertex_indices(t);
+    const double volume = signed_volume(x[v[0]], x[v[1]], x[v[2]], x[v[3]]);
+    if (!(volume > 0.0)) continue;
+    // Inside when the point lies on the inner side of every face (a point on a face is in either).
+    bool inside = true;
+    for (int f = 0; f < 4 && inside; ++f) {
+      std::array<Vec3, 4> p{x[v[0]], x[v[1]], x[v[2]], x[v[3]]};
+      p[static_cast<std::size_t>(f)] = point;
+      inside = signed_volume(p[0], p[1], p[2], p[3]) >= -1e-12 * volume;
+    }
+    if (inside) return piece_of_node(v[0]);
+  }
+  return {};
+}
+
+void Simulation::transform_nodes(const std::vector<std::uint32_t>& nodes, const Vec3& centre,
+                                 const Eigen::Matrix3d& rotation, const Vec3& translation) {
+  auto& x = mesh_.positions();
+  auto& v = mesh_.velocities();
+  for (const std::uint32_t n : nodes) {
+    x[n] = centre + rotation * (x[n] - centre) + translation;
+    v[n] = Vec3::Zero();
+  }
+  // Not tissue motion under the blade: nothing is cut by it.
+  cutter_->refit();
+  update_bounds();
+}
+
+std::string Simulation::move_piece(const Vec3& point, const Eigen::Quaterniond& rotation,
+                                   const Vec3& translation) {
+  MoveRecord record;
+  record.time = frame_time_;
+  const auto refuse = [&](std::string why) {
+    record.refused = std::move(why);
+    moves_.push_back(record);
+    return record.refused;
+  };
+  if (!scenario_.tissue.rigid) return refuse("the tissue is not rigid");
+  if (cutter_->in_contact()) return refuse("the blade is in the tissue");
+  const std::vector<std::uint32_t> nodes = piece_at(point);
+  if (nodes.empty()) return refuse("no tissue at that point");
+  // The centroid of the piece's volume, where it turns.
+  std::vector<std::uint8_t> in_piece(mesh_.node_capacity(), 0);
+  for (const std::uint32_t n : nodes) in_piece[n] = 1;
+  const auto& x = mesh_.positions();
+  Vec3 moment = Vec3::Zero();
+  double volume = 0.0;
+  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t) {
+    if (!mesh_.tet_slot_alive(t) || !in_piece[mesh_.tet_vertex_indices(t)[0]]) continue;
+    const auto& v = mesh_.tet_vertex_indices(t);
+    const double vol = signed_volume(x[v[0]], x[v[1]], x[v[2]], x[v[3]]);
+    moment += vol * (x[v[0]] + x[v[1]] + x[v[2]] + x[v[3]]) / 4.0;
+    volume += vol;
+    record.rest_volume += mesh_.rest_volume(mesh_.tet_handle(t));
+    ++record.tets;
+  }
+  const Vec3 centre = moment / volume;
+  const Eigen::Matrix3d r = rotation.normalized().toRotationMatrix();
+  transform_nodes(nodes, centre, r, translation);
+  standing_moves_.push_back({mesh_.node_handle(nodes.front()), centre, translation, r});
+  moves_.push_back(record);
+  return {};
+}
+
+std::string Simulation::undo_move() {
+  MoveRecord record;
+  record.time = frame_time_;
+  record.undo = true;
+  const auto refuse = [&](std::string why) {
+    record.refused = std::move(why);
+    moves_.push_back(record);
+    return record.refused;
+  };
+  if (standing_moves_.empty()) return refuse("no move to undo");
+  if (cutter_->in_contact()) return refuse("the blade is in the tissue");
+  const StandingMove m = standing_moves_.back();
+  standing_moves_.pop_back();
+  if (!mesh_.alive(m.anchor)) return refuse("the piece is gone");
+  const std::vector<std::uint32_t> nodes = piece_of_node(m.anchor.index);
+  // x' = c + R (x - c) + t, so x = c + R^T (x' - t - c): about the centre moved by t.
+  transform_nodes(nodes, m.centre + m.translation, m.rotation.transpose(), -m.translation);
+  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t)
+    if (mesh_.tet_slot_alive(t) &&
+        std::binary_search(nodes.begin(), nodes.end(), mesh_.tet_vertex_indices(t)[0])) {
+      ++record.tets;
+      record.rest_volume += mesh_.rest_volume(mesh_.tet_handle(t));
+    }
+  moves_.push_back(record);
+  return {};
+}
+
+void Simulation::apply_scheduled_moves(double t) {
+  for (; next_move_ < scenario_.moves.size() && scenario_.moves[next_move_].at <= t + 1e-12; ++next_move_) {
+    const PieceMove& m = scenario_.moves[next_move_];
+    (void)(m.undo ? undo_move() : move_piece(m.point, m.rotation, m.translation));
+  }
+}
+
 void Simulation::end_frame(double t, ForceChannel& forces) {
   frame_time_ = t;
+  apply_scheduled_moves(t);
   hold_severed_pieces(t);
   const bool pressing = indentation_ && indentation_->phase() == Indentation::Phase::Pressing;
   if (pressing) {

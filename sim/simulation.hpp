@@ -103,6 +103,23 @@ class Simulation {
   };
   [[nodiscard]] const std::vector<SeveredPiece>& severed_pieces() const { return severed_; }
 
+  // Rigid moves of pieces (volume data, paper section 7.1; scenario `moves`, sim/scenario.hpp): the
+  // piece holding `point` now (its tetrahedra and all joined to them by a node), turned by
+  // `rotation` about its centroid and shifted by `translation`. Undoable, last first. Each returns
+  // why it did nothing, or an empty string when it was done. Refused while the blade is in the
+  // tissue, and without rigid tissue.
+  std::string move_piece(const Vec3& point, const Eigen::Quaterniond& rotation, const Vec3& translation);
+  std::string undo_move();
+  struct MoveRecord {
+    double time = 0;  // [s] the frame that applied it
+    bool undo = false;
+    std::string refused;     // why it did nothing; empty when done
+    std::size_t tets = 0;    // of the piece moved
+    double rest_volume = 0;  // [m^3] of the piece moved
+  };
+  // Every move and undo asked for, in order.
+  [[nodiscard]] const std::vector<MoveRecord>& moves() const { return moves_; }
+
   // The score of the scenario's task so far (docs/scoring.md); none without a task.
   [[nodiscard]] std::optional<TaskScore> task_score() const;
   // The task scorer (with no incisions without a task): its view of the last tool sample.
@@ -146,6 +163,15 @@ class Simulation {
   void hand_over_cut();
   // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).
   void hold_severed_pieces(double t);
+  // The piece holding `point`: the node slots of the live tetrahedra joined to the one there by
+  // shared nodes, sorted; empty when no tetrahedron holds it.
+  [[nodiscard]] std::vector<std::uint32_t> piece_at(const Vec3& point) const;
+  [[nodiscard]] std::vector<std::uint32_t> piece_of_node(std::uint32_t node) const;
+  // x -> centre + rotation (x - centre) + translation for the nodes; refits the cutter.
+  void transform_nodes(const std::vector<std::uint32_t>& nodes, const Vec3& centre,
+                       const Eigen::Matrix3d& rotation, const Vec3& translation);
+  // Applies the scenario's moves due at time t.
+  void apply_scheduled_moves(double t);
   // Where a point of the blade (the tip, and points of the edge kTouchSpacing apart) first crosses
   // the outer surface inwards between two poses, if one does.
   [[nodiscard]] std::optional<SurfaceHit> entry(const BladePose& before, const BladePose& now) const;
@@ -187,6 +213,14 @@ class Simulation {
   bool pieces_changed_ = false;    // since the last search for severed pieces
   bool anchored_ = false;          // the scenario fixes some node
   std::vector<SeveredPiece> severed_;
+  struct StandingMove {  // what undo_move() needs
+    NodeId anchor;       // a node of the piece
+    Vec3 centre, translation;
+    Eigen::Matrix3d rotation;
+  };
+  std::vector<StandingMove> standing_moves_;
+  std::vector<MoveRecord> moves_;
+  std::size_t next_move_ = 0;  // the scenario's next move
   std::size_t samples_ = 0;
   ToolSample last_;
   std::optional<ToolSample> frame_start_;  // the last sample before this frame

@@ -12,6 +12,7 @@
 #include "devices/pose_log.hpp"
 #include "sim/log_generator.hpp"
 #include "sim/scenario.hpp"
+#include "sim/simulation.hpp"
 
 using namespace scalpel;
 namespace fs = std::filesystem;
@@ -241,4 +242,36 @@ TEST_CASE("log generator: a scenario without a task is an error") {
   Scenario s = bundled();
   s.task.reset();
   CHECK_THROWS_WITH_AS((void)generate_task_log(s), doctest::Contains("task"), InputError);
+}
+
+TEST_CASE(
+    "log generator: the bundled volume data log is reproducible, and --extend starts and ends each cut "
+    "outside the block") {
+  const Scenario s = load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/strata_volume.yaml");
+  IncisionMotion m;
+  m.extend = 0.008;
+  m.depth = 0.044;
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_strata";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path out = dir / "strata_volume.csv";
+  write_task_log(s, out.string(), m);
+  // Regenerate with: scalpelsim make-log config/scenarios/strata_volume.yaml --extend 0.008
+  // --depth 0.044 --out config/logs/strata_volume.csv
+  CHECK(read_bytes(out) == read_bytes(fs::path(SCALPEL_SOURCE_DIR) / "config/logs/strata_volume.csv"));
+  // The first cut runs along x at y = 1.6 mm from x = -30 to 30 mm: its tip goes from 8 mm before
+  // the block to 8 mm beyond it, 44 mm down, under the 40 mm block.
+  const Simulation reference(s);
+  double x_min = 1.0, x_max = -1.0, z_min = 1.0;
+  for (const ToolSample& sample : read_pose_log(out.string())) {
+    const BladePose b = reference.blade(sample);
+    if (std::abs(b.tip.y() - 0.0016) > 1e-6) break;  // the second cut
+    x_min = std::min(x_min, b.tip.x());
+    x_max = std::max(x_max, b.tip.x());
+    z_min = std::min(z_min, b.tip.z());
+  }
+  CHECK(x_min == doctest::Approx(-0.038).epsilon(1e-6));
+  CHECK(x_max == doctest::Approx(0.038).epsilon(1e-6));
+  CHECK(z_min == doctest::Approx(-0.044).epsilon(1e-6));
+  fs::remove_all(dir);
 }

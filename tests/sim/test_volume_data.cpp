@@ -79,7 +79,7 @@ void run(Simulation& sim, const std::vector<ToolSample>& samples,
   double next = frame;
   for (const ToolSample& s : samples) {
     sim.on_sample(s);
-    if (s.t >= next) {
+    while (s.t >= next) {
       sim.end_frame(next, forces);
       if (after_frame) after_frame();
       next += frame;
@@ -208,8 +208,189 @@ TEST_CASE(
   const ReplayResult result = replay(scenario, *scenario.log, options);
   CHECK(result.invariants_ok);
   CHECK(result.failure.empty());
+  CHECK(result.report["warnings"].empty());
+  CHECK(result.report["task"]["passed"].get<bool>());
+  // Two through-cuts, at y = 1.6 mm and x = 0.6 mm: four quarters; two of them moved apart, each
+  // its exact volume (40 mm deep).
+  CHECK(result.report["mesh"]["final"]["components"] == 4);
+  const auto& moves = result.report["piece_moves"];
+  REQUIRE(moves.size() == 2);
+  CHECK(moves[0]["done"].get<bool>());
+  CHECK(moves[1]["done"].get<bool>());
+  CHECK(moves[0]["rest_volume_mm3"].get<double>() == doctest::Approx(29.4 * 28.4 * 40).epsilon(1e-9));
+  CHECK(moves[1]["rest_volume_mm3"].get<double>() == doctest::Approx(30.6 * 31.6 * 40).epsilon(1e-9));
   std::ifstream in(options.out_dir / "mesh.vtu");
   std::stringstream text;
   text << in.rdbuf();
   CHECK(text.str().find("Name=\"amplitude\"") != std::string::npos);
+}
+
+namespace {
+
+// The scenario above with a 30 mm blade, cut through from side to side (the log starts and ends
+// 4 mm outside the box, the tip 2 mm below it): two pieces, y below and above 0.0013.
+struct Halves {
+  Scenario scenario;
+  std::vector<ToolSample> samples;
+};
+Halves halves(const std::string& extra = "") {
+  std::string text = scenario_text(write_linear_volume(), extra);
+  text.replace(text.find("back: [0, 0, 0.012]"), 19, "back: [0, 0, 0.030]");
+  text.replace(text.find("[[-0.0071, 0.0013, 0.0], [0.0069, 0.0013, 0.0]]"), 47,
+               "[[-0.012, 0.0013, 0.0], [0.012, 0.0013, 0.0]]");
+  text.replace(text.find("depth: [0.004, 0.005]"), 21, "depth: [0.007, 0.008]");
+  Halves h{parse_scenario(text, "halves.yaml", "."), {}};
+  IncisionMotion motion;
+  motion.extend = 0.004;
+  motion.depth = 0.010;
+  h.samples = generate_task_log(h.scenario, motion);
+  return h;
+}
+
+// The length of every edge of every live tetrahedron now, in slot order.
+std::vector<double> edge_lengths(const TetMesh& mesh) {
+  std::vector<double> out;
+  for (const TetId t : mesh.tets()) {
+    const auto v = mesh.tet_nodes(t);
+    for (const auto& e : kEdgeVertices)
+      out.push_back((mesh.position(v[static_cast<std::size_t>(e[0])]) -
+                     mesh.position(v[static_cast<std::size_t>(e[1])]))
+                        .norm());
+  }
+  return out;
+}
+
+double largest_change(const std::vector<double>& a, const std::vector<double>& b) {
+  REQUIRE(a.size() == b.size());
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::abs(a[i] - b[i]));
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "a severed piece moves rigidly, keeps its shape and volume exactly, is cut again where it now lies, and "
+    "the move undoes") {
+  const Halves h = halves();
+  Simulation sim(h.scenario);
+  run(sim, h.samples);
+  REQUIRE(validate(sim.mesh()).ok());
+  const std::vector<Vec3> before = sim.mesh().positions();
+
+  // Refused: nothing there, or nothing to undo.
+  CHECK(sim.move_piece(Vec3(0.1, 0.1, 0.1), Eigen::Quaterniond::Identity(), Vec3(0.01, 0, 0)) ==
+        "no tissue at that point");
+  CHECK(sim.undo_move() == "no move to undo");
+
+  // The half beyond y = 0.0013: 24 x 8.7 x 8 mm, turned 30 degrees about z and lifted.
+  const std::vector<double> lengths = edge_lengths(sim.mesh());
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(std::acos(-1.0) / 6, Vec3::UnitZ()));
+  REQUIRE(sim.move_piece(Vec3(0.003, 0.006, -0.004), turn, Vec3(0.0, 0.01, 0.005)) == "");
+  const Simulation::MoveRecord& moved = sim.moves().back();
+  CHECK(moved.rest_volume == doctest::Approx(0.024 * 0.0087 * 0.008).epsilon(1e-9));
+  CHECK(largest_change(lengths, edge_lengths(sim.mesh())) < 1e-16);  // [m] rigid: no edge changed length
+  std::size_t moved_nodes = 0, kept_nodes = 0;
+  for (const NodeId n : sim.mesh().nodes()) {
+    const bool far_side = sim.mesh().rest(n).y() > 0.0013 + 1e-9;
+    const bool near_side = sim.mesh().rest(n).y() < 0.0013 - 1e-9;
+    const bool still = sim.mesh().position(n) == before[n.index];
+    moved_nodes += far_side && !still ? 1 : 0;
+    kept_nodes += near_side && still ? 1 : 0;
+    if (far_side) CHECK_FALSE(still);
+    if (near_side) CHECK(still);
+  }
+  CHECK(moved_nodes > 100);
+  CHECK(kept_nodes > 100);
+
+  const std::vector<Vec3> moved_positions = sim.mesh().positions();
+  // The moved half is cut again where it lies now: a vertical stab down through its middle.
+  const Vec3 centre = Vec3(0.0, 0.0056, -0.004) + Vec3(0.0, 0.01, 0.005);  // roughly, after the move
+  std::vector<ToolSample> stab;
+  const double t0 = h.samples.back().t;
+  for (int k = 1; k <= 400; ++k) {
+    ToolSample s;
+    s.t = t0 + k / 1000.0;
+    const double u = k / 400.0;
+    s.position = centre + Vec3(-0.006 + 0.012 * u, 0.0, 0.012 - 0.014 * std::min(1.0, 4 * u));
+    stab.push_back(s);
+  }
+  const std::size_t edges_before = sim.cutter().totals().edges_cut;
+  run(sim, stab);
+  CHECK(sim.cutter().totals().edges_cut > edges_before);
+  CHECK(validate(sim.mesh()).ok());
+  // Refused while the blade is in the tissue.
+  if (sim.cutter().in_contact()) CHECK(sim.undo_move() == "the blade is in the tissue");
+
+  // Lift the blade out, then undo: the nodes that were there go back where they were.
+  std::vector<ToolSample> out;
+  ToolSample s = stab.back();
+  for (int k = 1; k <= 100; ++k) {
+    s.t += 0.001;
+    s.position.z() += 0.0003;
+    out.push_back(s);
+  }
+  run(sim, out);
+  REQUIRE_FALSE(sim.cutter().in_contact());
+  REQUIRE(sim.undo_move() == "");
+  // The nodes of the first cut's mesh the stab did not move (its own nodes are new or slid).
+  double back = 0.0;
+  std::size_t checked = 0;
+  for (const NodeId n : sim.mesh().nodes())
+    if (n.index < before.size() && sim.mesh().position(n) != moved_positions[n.index] &&
+        sim.mesh().rest(n).y() > 0.0013 + 1e-9) {
+      back = std::max(back, (sim.mesh().position(n) - before[n.index]).norm());
+      ++checked;
+    }
+  CHECK(checked > 100);
+  CHECK(back < 1e-17);  // [m] round-off of a turn there and back
+}
+
+TEST_CASE("a scenario's moves run at their times and are reported, and bad moves name their line and key") {
+  const Halves h = halves(
+      "moves:\n"
+      "  - {at: 3, point: [0, 0.006, -0.004], translate: [0, 0.01, 0]}\n"
+      "  - {at: 10, point: [0, 0.006, -0.004], translate: [0, 0.01, 0]}\n"
+      "  - {at: 10, undo: true}\n");
+  REQUIRE(h.scenario.moves.size() == 3);
+  CHECK(h.scenario.moves[2].undo);
+  const double end = h.samples.back().t;
+  std::vector<ToolSample> samples = h.samples;
+  ToolSample s = samples.back();
+  s.t = 11.0;  // after the cut, the knife held above the box
+  samples.push_back(s);
+  Simulation sim(h.scenario);
+  run(sim, samples);
+  REQUIRE(sim.moves().size() == 3);
+  CHECK(sim.moves()[0].refused == "the blade is in the tissue");  // at 3 s the blade is cutting
+  CHECK(sim.moves()[0].time < end);
+  CHECK(sim.moves()[1].refused.empty());
+  CHECK(sim.moves()[1].rest_volume == doctest::Approx(0.024 * 0.0087 * 0.008).epsilon(1e-9));
+  CHECK(sim.moves()[2].undo);
+  CHECK(sim.moves()[2].refused.empty());
+
+  struct Case {
+    std::string text, field, message;
+  };
+  const Case cases[] = {
+      {"moves:\n  - {at: 2, undo: true}\n  - {at: 1, undo: true}\n", "moves[1].at", "time order"},
+      {"moves:\n  - {at: 1, undo: false}\n", "moves[0].undo", "expected true"},
+      {"moves:\n  - {at: 1, translate: [0, 0, 1]}\n", "moves[0].point", "point"},
+      {"moves:\n  - {at: 1, point: [0, 0, 0], rotate: {axis: [0, 0, 0], angle_deg: 5}}\n",
+       "moves[0].rotate.axis", "non-zero"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.text);
+    try {
+      (void)parse_scenario(scenario_text(write_linear_volume(), "") + c.text, "moves.yaml", ".");
+      FAIL("no error");
+    } catch (const InputError& e) {
+      CHECK(e.field() == c.field);
+      CHECK(std::string(e.what()).find(c.message) != std::string::npos);
+    }
+  }
+  // Only rigid tissue moves.
+  std::string soft = scenario_text(write_linear_volume(), "") + "moves:\n  - {at: 1, undo: true}\n";
+  soft.replace(soft.find("tissue: {model: rigid}"), 22, "materials: {tissue: {young: 1.0e4, poisson: 0.4}}");
+  CHECK_THROWS_WITH_AS((void)parse_scenario(soft, "moves.yaml", "."), doctest::Contains("rigid"), InputError);
 }
