@@ -63,6 +63,9 @@ int main(int argc, char** argv) {
                        "Also write PNG pictures of the final state: top.png, oblique.png, section.png");
   replay_cmd->add_option("--image-every", image_args.every,
                          "And the oblique view every N frames, as frames/oblique_<frame>.png");
+  bool exports = false;
+  replay_cmd->add_flag("--export", exports,
+                       "Also write the final mesh as mesh.msh and its surface as surface.stl, .obj and .ply");
   replay_cmd->add_option("--mesh-every", mesh_every,
                          "A ParaView time series: the mesh every N frames in series/, listed in mesh.pvd");
   replay_cmd->add_option("--image-size", image_args.size, "Picture size, WIDTHxHEIGHT")
@@ -196,7 +199,8 @@ int main(int argc, char** argv) {
     return usage_error(app, argc, argv, e);
   }
   try {
-    if (*replay_cmd) return cmd_replay(scenario, log, out, no_progress, strict, mesh_every, image_args);
+    if (*replay_cmd)
+      return cmd_replay(scenario, log, out, no_progress, strict, mesh_every, exports, image_args);
     if (*validate_cmd) return cmd_validate(scenario, strict);
     if (*check_cmd) return cmd_check(check_file, out, junit);
     if (*report_cmd) return cmd_report(report_sessions, report_out);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 
@@ -559,6 +560,14 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   series.flush();
   if (!series) throw std::runtime_error("cannot write " + (options.out_dir / "frames.csv").string());
   write_mesh_vtu(sim, options.out_dir / "mesh.vtu");
+  if (options.exports) {
+    std::map<int, std::string> names;
+    for (const auto& [name, id] : generated_region_ids(scenario)) names[id] = name;
+    write_msh(sim.mesh(), (options.out_dir / "mesh.msh").string(), names);
+    write_boundary_stl(sim.mesh(), (options.out_dir / "surface.stl").string());
+    write_boundary_obj(sim.mesh(), (options.out_dir / "surface.obj").string());
+    write_boundary_ply(sim.mesh(), (options.out_dir / "surface.ply").string());
+  }
   if (!series_files.empty()) {
     std::ofstream pvd(options.out_dir / "mesh.pvd");
     pvd.precision(9);

@@ -29,6 +29,9 @@ struct ReplayOptions {
   // A ParaView time series of the mesh: every this many frames and at the last, the mesh as
   // out_dir/series/mesh_<frame>.vtu, listed with its time in out_dir/mesh.pvd; 0: none.
   std::size_t mesh_every = 0;
+  // The final mesh also as out_dir/mesh.msh (Gmsh 2.2) and its boundary surface as surface.stl,
+  // surface.obj and surface.ply (sculpting, paper section 7.3).
+  bool exports = false;
 };
 
 struct ReplayResult {

@@ -17,6 +17,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -113,5 +114,15 @@ void write_vtu(const TetMesh& mesh, const std::string& path, const VtuData& data
 // vertices are the nodes on the boundary, numbered compactly in slot order.
 void write_boundary_obj(const TetMesh& mesh, const std::string& path);
 void write_boundary_ply(const TetMesh& mesh, const std::string& path);
+// Binary STL: a triangle soup (each triangle its three corners and its unit normal, as floats); a
+// reader that merges corners by position joins the copies of a node on the two lips of a closed cut.
+void write_boundary_stl(const TetMesh& mesh, const std::string& path);
+
+// ---- tetrahedral mesh output ---------------------------------------------------------------------
+// Gmsh .msh, ASCII 2.2: the live nodes at current positions and the live tetrahedra, numbered from 1
+// in slot order, each tagged region id + 1 (physical and elementary), with $PhysicalNames from
+// `region_names` (region id -> name) when given. read_gmsh reads it back with the same regions.
+void write_msh(const TetMesh& mesh, const std::string& path,
+               const std::map<int, std::string>& region_names = {});
 
 }  // namespace scalpel

@@ -18,7 +18,8 @@ struct ImageArgs {
 };
 
 int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out,
-               bool no_progress, bool strict, std::size_t mesh_every, const ImageArgs& image_args);
+               bool no_progress, bool strict, std::size_t mesh_every, bool exports,
+               const ImageArgs& image_args);
 int cmd_check(const std::string& check_path, const std::string& out, const std::string& junit);
 int cmd_report(const std::vector<std::string>& sessions, const std::string& out);
 int cmd_validate(const std::string& path, bool strict);

@@ -34,7 +34,8 @@
 namespace scalpel::cli {
 
 int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, const std::string& out,
-               bool no_progress, bool strict, std::size_t mesh_every, const ImageArgs& image_args) {
+               bool no_progress, bool strict, std::size_t mesh_every, bool exports,
+               const ImageArgs& image_args) {
   const fs::path scenario_path = scenario_arg.empty() ? default_scenario() : fs::path(scenario_arg);
   const Scenario scenario = load_scenario(scenario_path);
   check_output_dir(out, "--out");
@@ -47,6 +48,7 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
   ReplayOptions options;
   options.out_dir = out;
   options.mesh_every = mesh_every;
+  options.exports = exports;
   if (!no_progress && isatty(STDERR_FILENO)) options.progress = print_progress;
 #ifdef SCALPEL_HAVE_GUI
   std::unique_ptr<ReplayPictures> pictures;
@@ -90,6 +92,7 @@ int cmd_replay(const std::string& scenario_arg, const std::string& log_arg, cons
             << "  wrote " << (fs::path(out) / "report.json").string() << ", "
             << (fs::path(out) / "run.json").string() << ", " << (fs::path(out) / "frames.csv").string()
             << " and " << (fs::path(out) / "mesh.vtu").string() << "\n";
+  if (exports) std::cout << "  wrote mesh.msh, surface.stl, surface.obj and surface.ply in " << out << "\n";
 #ifdef SCALPEL_HAVE_GUI
   if (pictures) std::cout << "  wrote " << pictures->written().size() << " pictures in " << out << "\n";
 #endif

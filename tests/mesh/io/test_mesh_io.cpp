@@ -496,3 +496,31 @@ TEST_CASE("mesh_io writes the vtu that meshio reads") {
   const TetMesh back = read_vtu(dir + "/meshio_check.vtu");
   CHECK(back.tet_count() == m.tet_count());
 }
+
+TEST_CASE(
+    "mesh_io writes a Gmsh 2.2 mesh that reads back with its nodes, tetrahedra and named regions, and a "
+    "binary STL of the boundary") {
+  TetMesh m = holed_box();
+  for (const TetId t : m.tets()) m.set_region(t, m.rest_volume(t) > 0 && t.index % 3 == 0 ? 2 : 0);
+  const std::string dir = SCALPEL_TEST_OUTPUT_DIR;
+  write_msh(m, dir + "/written.msh", {{0, "rock"}, {2, "clay"}});
+  MeshFileInfo info;
+  const TetMesh back = read_mesh(dir + "/written.msh", &info);
+  REQUIRE(back.tet_count() == m.tet_count());
+  CHECK(back.node_count() == m.node_count());
+  double current = 0.0;  // the file holds the current positions
+  for (const TetId t : m.tets()) current += m.current_volume(t);
+  CHECK(back.total_rest_volume() == doctest::Approx(current).epsilon(1e-12));
+  REQUIRE(info.regions.size() == 2);
+  CHECK(info.regions[0].name == "rock");
+  CHECK(info.regions[1].name == "clay");
+  std::size_t clay = 0, clay_back = 0;
+  for (const TetId t : m.tets()) clay += m.region(t) == 2 ? 1 : 0;
+  for (const TetId t : back.tets()) clay_back += back.region(t) == 1 ? 1 : 0;  // ids renumbered 0, 1
+  CHECK(clay_back == clay);
+  CHECK(validate(back).ok());
+
+  write_boundary_stl(m, dir + "/written.stl");
+  const auto faces = boundary_faces(m);
+  CHECK(std::filesystem::file_size(dir + "/written.stl") == 84 + 50 * faces.size());
+}
