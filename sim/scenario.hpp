@@ -153,6 +153,9 @@ struct Task {
   std::vector<Incision> incisions;  // in the order they are to be made
   std::vector<std::string> protected_regions;
   PassThresholds pass;
+  // false: the incisions only guide the log generator and the picture (sculpting, volume data);
+  // no score is kept.
+  bool scored = true;
   SourceLocation where;
   SourceLocation protected_where;  // of the `protected` key
 };

@@ -141,8 +141,9 @@ void Session::publish_frame(double frame_seconds) {
   // Ended for the trainee when the simulation has also taken every pose the device sent.
   s.playback_ended =
       playback_ && playback_->position() >= playback_->duration() && hs.samples_pushed == popped_;
-  s.has_task = scenario_.task.has_value();
-  if (s.has_task) s.task = *sim_->task_score();
+  const std::optional<TaskScore> score = sim_->task_score();
+  s.has_task = score.has_value();
+  if (score) s.task = *score;
   s.tip = sim_->scorer().last();
   s.recorded = writer_ ? writer_->samples_written() : 0;
   frames_.publish();

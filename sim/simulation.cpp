@@ -171,7 +171,7 @@ void Simulation::update_bounds() {
 }
 
 std::optional<TaskScore> Simulation::task_score() const {
-  if (!scenario_.task) return std::nullopt;
+  if (!scenario_.task || !scenario_.task->scored) return std::nullopt;
   return scorer_->score(*cutter_, mesh_);
 }
 

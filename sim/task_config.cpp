@@ -63,8 +63,9 @@ void read_pass(const YamlReader& r, const YamlValue& v, PassThresholds& out) {
 
 Task read_task(const YamlReader& r, const YamlValue& v) {
   const YamlMap m(r, v);
-  m.only({"path", "tolerance", "depth", "incisions", "protected", "pass"});
+  m.only({"path", "tolerance", "depth", "incisions", "protected", "pass", "scored"});
   Task t;
+  if (const auto x = m.get("scored")) t.scored = r.boolean(*x);
   t.where = yaml_location(v.key_mark);
   if (const auto x = m.get("incisions")) {
     if (m.get("path") || m.get("tolerance") || m.get("depth"))
@@ -84,7 +85,10 @@ Task read_task(const YamlReader& r, const YamlValue& v) {
     for (const YamlValue& region : r.list(*x, "a list of region names"))
       t.protected_regions.push_back(r.string(region));
   }
-  if (const auto x = m.get("pass")) read_pass(r, *x, t.pass);
+  if (const auto x = m.get("pass")) {
+    if (!t.scored) r.fail(x->key_mark, x->path, "an unscored task (scored: false) has no pass thresholds");
+    read_pass(r, *x, t.pass);
+  }
   return t;
 }
 

@@ -141,11 +141,12 @@ std::vector<View> replay_views(const FrameSnapshot& s, double aspect) {
 
   // Volume data (paper section 7.1, Fig. 14): the outer surface see-through, so the cut faces show
   // the field inside; then the same with the tetrahedra's edges (the snapshot must hold them).
-  if (s.field) {
-    View inside{"inside", oblique.camera, {}};
-    inside.options.transparent_skin = true;
-    inside.options.target = false;
-    views.push_back(inside);
+  View inside{"inside", oblique.camera, {}};
+  inside.options.transparent_skin = true;
+  inside.options.target = false;
+  if (s.field) views.push_back(inside);
+  // Sculpting (section 7.3, Fig. 16b): the refinement near the cut surfaces, with every edge.
+  if (!s.edges.empty()) {
     View mesh = inside;
     mesh.name = "mesh";
     mesh.options.wireframe = true;
@@ -182,7 +183,7 @@ ReplayPictures::ReplayPictures(PictureOptions options)
 void ReplayPictures::operator()(const Simulation& sim, std::size_t frame, bool last) {
   const bool sequence = options_.every > 0 && frame % options_.every == 0;
   if (!sequence && !last) return;
-  sim.snapshot(snapshot_, /*with_edges=*/last && sim.scenario().volume.has_value());
+  sim.snapshot(snapshot_, /*with_edges=*/last && (sim.scenario().volume || sim.scenario().tissue.rigid));
   snapshot_.frame = frame;
   const auto views = replay_views(snapshot_, static_cast<double>(options_.width) / options_.height);
   if (sequence) {

@@ -62,8 +62,8 @@ class OffscreenRenderer {
 // - oblique: from the front and above, on the target;
 // - section: across the middle of the target path, the tissue beyond the plane clipped away, so
 //   the incision's depth and its gape show in profile;
-// - with a field (volume data): inside, the oblique view with the outer surface see-through, and
-//   mesh, the same with the tetrahedra's edges.
+// - with a field (volume data): inside, the oblique view with the outer surface see-through;
+// - with the tetrahedra's edges in the snapshot: mesh, the same with them drawn.
 struct View {
   std::string name;
   Camera camera;

@@ -275,3 +275,19 @@ TEST_CASE(
   CHECK(z_min == doctest::Approx(-0.044).epsilon(1e-6));
   fs::remove_all(dir);
 }
+
+TEST_CASE("log generator: the bundled sculpting log is reproducible") {
+  const Scenario s = load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/bracket_sculpt.yaml");
+  IncisionMotion m;
+  m.extend = 0.007;
+  m.depth = 0.013;
+  const fs::path dir = fs::temp_directory_path() / "scalpelsim_test_make_log_bracket";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path out = dir / "bracket_sculpt.csv";
+  write_task_log(s, out.string(), m);
+  // Regenerate with: scalpelsim make-log config/scenarios/bracket_sculpt.yaml --extend 0.007
+  // --depth 0.013 --out config/logs/bracket_sculpt.csv
+  CHECK(read_bytes(out) == read_bytes(fs::path(SCALPEL_SOURCE_DIR) / "config/logs/bracket_sculpt.csv"));
+  fs::remove_all(dir);
+}

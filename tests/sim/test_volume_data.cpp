@@ -394,3 +394,28 @@ TEST_CASE("a scenario's moves run at their times and are reported, and bad moves
   soft.replace(soft.find("tissue: {model: rigid}"), 22, "materials: {tissue: {young: 1.0e4, poisson: 0.4}}");
   CHECK_THROWS_WITH_AS((void)parse_scenario(soft, "moves.yaml", "."), doctest::Contains("rigid"), InputError);
 }
+
+TEST_CASE(
+    "sculpting: the bundled bracket's V-notch frees a wedge of exactly the volume the two cut planes bound, "
+    "taken aside" *
+    doctest::test_suite("slow")) {
+  const fs::path root(SCALPEL_SOURCE_DIR);
+  const Scenario scenario = load_scenario(root / "config/scenarios/bracket_sculpt.yaml");
+  CHECK(scenario.tissue.rigid);
+  REQUIRE(scenario.task);
+  CHECK_FALSE(scenario.task->scored);
+  ReplayOptions options;
+  options.out_dir = temp_dir() / "bracket";
+  const ReplayResult result = replay(scenario, *scenario.log, options);
+  CHECK(result.invariants_ok);
+  CHECK(result.report["warnings"].empty());
+  CHECK_FALSE(result.report.contains("task"));  // unscored
+  CHECK(result.report["mesh"]["final"]["components"] == 2);
+  CHECK(result.report["mesh"]["initial"]["tetrahedra"] == 3661);
+  // The planes x + y = 56 mm and x - y = 32 mm meet 6 mm inside the 10 mm base's end face x = 50 mm:
+  // a triangle of 12 x 6 / 2 mm^2 through the base.
+  const auto& moves = result.report["piece_moves"];
+  REQUIRE(moves.size() == 1);
+  CHECK(moves[0]["done"].get<bool>());
+  CHECK(moves[0]["rest_volume_mm3"].get<double>() == doctest::Approx(12.0 * 6.0 / 2.0 * 10.0).epsilon(1e-7));
+}
