@@ -246,7 +246,8 @@ TEST_CASE("log generator: a scenario without a task is an error") {
 
 TEST_CASE(
     "log generator: the bundled volume data log is reproducible, and --extend starts and ends each cut "
-    "outside the block") {
+    "outside the block" *
+    doctest::test_suite("slow")) {
   const Scenario s = load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/strata_volume.yaml");
   IncisionMotion m;
   m.extend = 0.008;
@@ -276,7 +277,7 @@ TEST_CASE(
   fs::remove_all(dir);
 }
 
-TEST_CASE("log generator: the bundled sculpting log is reproducible") {
+TEST_CASE("log generator: the bundled sculpting log is reproducible" * doctest::test_suite("slow")) {
   const Scenario s = load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/bracket_sculpt.yaml");
   IncisionMotion m;
   m.extend = 0.007;

@@ -92,7 +92,8 @@ void run(Simulation& sim, const std::vector<ToolSample>& samples,
 
 TEST_CASE(
     "a field sampled from a volume is carried through every cut: each node holds the volume's value at its "
-    "rest position") {
+    "rest position" *
+    doctest::test_suite("slow")) {
   const Scenario scenario = parse_scenario(scenario_text(write_linear_volume()), "volume.yaml", ".");
   // Tremble slides mid nodes, pulling back re-cuts, the crossing stroke continues into the first
   // cut's subdivision (section 6): every way the cutter makes or moves a node.
@@ -128,7 +129,8 @@ TEST_CASE(
   CHECK(validate(sim.mesh()).ok());
 }
 
-TEST_CASE("rigid tissue does not move: cut or not, every node stays at its rest position") {
+TEST_CASE("rigid tissue does not move: cut or not, every node stays at its rest position" *
+          doctest::test_suite("slow")) {
   const Scenario scenario = parse_scenario(scenario_text(write_linear_volume()), "volume.yaml", ".");
   CHECK(scenario.tissue.rigid);
   CHECK(scenario.materials.empty());
@@ -192,7 +194,8 @@ TEST_CASE("a scenario's volume section: bad input names the scenario's line and 
 }
 
 TEST_CASE(
-    "the bundled seismic data set is what make-volume writes, and its replay writes the field with the mesh" *
+    "the bundled seismic data set is what make-volume writes, and its replay quarters the block, moves two "
+    "quarters apart and writes the field with the mesh" *
     doctest::test_suite("slow")) {
   const fs::path root(SCALPEL_SOURCE_DIR);
   const ScalarVolume bundled = read_nrrd_volume(root / "config/volumes/strata.nrrd");
@@ -271,7 +274,8 @@ double largest_change(const std::vector<double>& a, const std::vector<double>& b
 
 TEST_CASE(
     "a severed piece moves rigidly, keeps its shape and volume exactly, is cut again where it now lies, and "
-    "the move undoes") {
+    "the move undoes" *
+    doctest::test_suite("slow")) {
   const Halves h = halves();
   Simulation sim(h.scenario);
   run(sim, h.samples);
@@ -346,7 +350,8 @@ TEST_CASE(
   CHECK(back < 1e-17);  // [m] round-off of a turn there and back
 }
 
-TEST_CASE("a scenario's moves run at their times and are reported, and bad moves name their line and key") {
+TEST_CASE("a scenario's moves run at their times and are reported, and bad moves name their line and key" *
+          doctest::test_suite("slow")) {
   const Halves h = halves(
       "moves:\n"
       "  - {at: 3, point: [0, 0.006, -0.004], translate: [0, 0.01, 0]}\n"
@@ -418,4 +423,19 @@ TEST_CASE(
   REQUIRE(moves.size() == 1);
   CHECK(moves[0]["done"].get<bool>());
   CHECK(moves[0]["rest_volume_mm3"].get<double>() == doctest::Approx(12.0 * 6.0 / 2.0 * 10.0).epsilon(1e-7));
+}
+
+TEST_CASE("an unscored task guides the log generator and keeps no score" * doctest::test_suite("slow")) {
+  std::string text = scenario_text(write_linear_volume());
+  const Scenario scored = parse_scenario(text, "volume.yaml", ".");
+  CHECK(scored.task->scored);
+  text += "  scored: false\n";
+  const Scenario unscored = parse_scenario(text, "volume.yaml", ".");
+  CHECK_FALSE(unscored.task->scored);
+  Simulation sim(unscored);
+  run(sim, generate_task_log(unscored));
+  CHECK(sim.cutter().totals().edges_cut > 0);
+  CHECK_FALSE(sim.task_score().has_value());
+  CHECK_THROWS_WITH_AS((void)parse_scenario(text + "  pass: {score: 50}\n", "volume.yaml", "."),
+                       doctest::Contains("no pass thresholds"), InputError);
 }
