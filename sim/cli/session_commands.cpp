@@ -195,7 +195,9 @@ int cmd_report(const std::vector<std::string>& sessions, const std::string& out)
 int cmd_validate(const std::string& path, bool strict) {
   const Scenario scenario = load_scenario(path);
   const ScenarioMesh m = load_scenario_mesh(scenario);
-  (void)resolve_materials(scenario, m.regions, m.mesh);
+  // Rigid tissue without materials needs none (Simulation gives its regions a default).
+  if (!scenario.tissue.rigid || !scenario.materials.empty())
+    (void)resolve_materials(scenario, m.regions, m.mesh);
   (void)select_fixed_nodes(scenario, m.mesh);
   const auto report = validate(m.mesh, {.reference_volume = m.mesh.total_rest_volume()});
   const MeshSummary s = summarize(m.mesh);
