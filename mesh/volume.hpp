@@ -38,9 +38,10 @@ struct ScalarVolume {
 // Reads a NRRD volume (attached or detached data; raw, ASCII or gzip encoding; any scalar type)
 // through Teem's nrrd library. It must be 3-dimensional with scalar samples, and its space
 // directions, when given, axis-aligned with positive steps; "space units" of "mm" scale to metres
-// (anything else but "m" is refused). Without space directions and origin the grid starts at 0 with
-// the axes' spacings, or 1 when none is given. Every problem is an InputError naming the file, the
-// header line and the field.
+// (anything else but "m" is refused). Without a space, the axes' spacings (1 when none is given)
+// and, where an axis has a minimum, the first sample's position by its centering (else 0); per-axis
+// "units" of "mm" scale these. Every problem is an InputError naming the file, the header line and
+// the field; a problem in the data names the first line of data (after the blank line).
 [[nodiscard]] ScalarVolume read_nrrd_volume(const std::filesystem::path& path);
 
 // Writes `volume` as an attached, gzip-encoded NRRD of floats with its grid in metres.

@@ -562,7 +562,9 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   write_mesh_vtu(sim, options.out_dir / "mesh.vtu");
   if (options.exports) {
     std::map<int, std::string> names;
-    for (const auto& [name, id] : generated_region_ids(scenario)) names[id] = name;
+    // A region's own name over its region_<id> form.
+    for (const auto& [name, id] : sim.regions())
+      if (!names.contains(id) || names[id].starts_with("region_")) names[id] = name;
     write_msh(sim.mesh(), (options.out_dir / "mesh.msh").string(), names);
     write_boundary_stl(sim.mesh(), (options.out_dir / "surface.stl").string());
     write_boundary_obj(sim.mesh(), (options.out_dir / "surface.obj").string());

@@ -380,8 +380,8 @@ void Parser::volume(const Value& v, VolumeSource& out) const {
                       std::all_of(out.field.begin(), out.field.end(),
                                   [](unsigned char c) { return std::isalnum(c) || c == '_' || c == '-'; });
     if (!word) fail(*x, "expected a name of letters, digits, '_' or '-'");
-    if (out.field == "region" || out.field == "displacement")
-      fail(*x, "'" + out.field + "' is an array mesh.vtu already holds; choose another name");
+    if (out.field == "rest_position" || out.field == "displacement")
+      fail(*x, "'" + out.field + "' is a point array mesh.vtu already holds; choose another name");
   }
   if (const auto x = m.get("box")) {
     const Map b(*this, *x);
@@ -556,9 +556,9 @@ Scenario Parser::parse(const std::string& text) const {
   });
   (void)read([&] {
     if (s.tissue.rigid && s.tool.contact == ToolContactKind::Indent)
-      fail(top.require("tool"),
-           "contact: indent presses the tissue in, which rigid tissue (tissue.model: rigid) "
-           "cannot; use contact: none");
+      fail(*Map(*this, top.require("tool")).get("contact"),
+           "contact: indent presses the tissue in, which rigid tissue (tissue.model: rigid) cannot; use "
+           "contact: none");
   });
   (void)read([&] {
     if (const auto x = top.get("log")) {

@@ -84,6 +84,7 @@ ScenarioMesh read_scenario_mesh(const Scenario& scenario) {
 Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
   ScenarioMesh m = load_scenario_mesh(scenario_);
   mesh_ = std::move(m.mesh);
+  regions_ = m.regions;
   initial_volume_ = mesh_.total_rest_volume();
   wound_meter_ = std::make_unique<WoundMeter>(mesh_);
   snapshots_ = std::make_unique<SnapshotBuilder>(mesh_);

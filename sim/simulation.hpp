@@ -74,6 +74,8 @@ class Simulation {
   [[nodiscard]] double time() const { return frame_time_; }
 
   [[nodiscard]] const Scenario& scenario() const { return scenario_; }
+  // The mesh's region names (a file's names and the region_<id> form, or a generated mesh's).
+  [[nodiscard]] const RegionIds& regions() const { return regions_; }
   [[nodiscard]] TetMesh& mesh() { return mesh_; }
   [[nodiscard]] const TetMesh& mesh() const { return mesh_; }
   [[nodiscard]] const CutEngine& cutter() const { return *cutter_; }
@@ -212,6 +214,7 @@ class Simulation {
   bool topology_changed_ = false;  // since the last tissue step
   bool pieces_changed_ = false;    // since the last search for severed pieces
   bool anchored_ = false;          // the scenario fixes some node
+  RegionIds regions_;
   std::vector<SeveredPiece> severed_;
   struct StandingMove {  // what undo_move() needs
     NodeId anchor;       // a node of the piece

@@ -121,7 +121,8 @@ void write_boundary_stl(const TetMesh& mesh, const std::string& path);
 // ---- tetrahedral mesh output ---------------------------------------------------------------------
 // Gmsh .msh, ASCII 2.2: the live nodes at current positions and the live tetrahedra, numbered from 1
 // in slot order, each tagged region id + 1 (physical and elementary), with $PhysicalNames from
-// `region_names` (region id -> name) when given. read_gmsh reads it back with the same regions.
+// `region_names` (region id -> name) when given. read_gmsh reads it back with the same regions in
+// the same order and names (ids renumbered 0, 1, 2, ... as for any Gmsh file).
 void write_msh(const TetMesh& mesh, const std::string& path,
                const std::map<int, std::string>& region_names = {});
 

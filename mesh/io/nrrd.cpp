@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -67,13 +68,15 @@ class Located {
     return 0;
   }
   [[noreturn]] void fail(const std::string& field, const std::string& message) const {
-    throw InputError(path_.string(), line_of(field), 0, field, message);
+    throw InputError(path_.string(), field == "data" ? data_line() : line_of(field), 0, field, message);
   }
+  // The first line of attached data: after the header and the blank line that ends it.
+  [[nodiscard]] int data_line() const { return static_cast<int>(lines_.size()) + 2; }
   // Teem's failure to read, located at the field it names.
   [[noreturn]] void fail_teem() const {
     const std::vector<std::string> messages = teem_messages();
     std::string field = "data", message = messages.empty() ? "cannot be read" : messages.back();
-    int line = static_cast<int>(lines_.size()) + 1;  // the data, after the header
+    int line = data_line();
     for (const std::string& m : messages) {
       if (const auto at = m.find("trouble parsing "); at != std::string::npos) {
         const auto info = m.find(" info", at);
@@ -107,11 +110,11 @@ class Located {
 };
 
 // Metres per unit of a "space units" entry.
-double unit_scale(const Located& at, const char* unit) {
+double unit_scale(const Located& at, const char* unit, const std::string& field = "space units") {
   const std::string u = unit ? unit : "";
   if (u.empty() || u == "m") return 1.0;
   if (u == "mm") return 1e-3;
-  at.fail("space units", "unit '" + u + "' is not supported (m or mm)");
+  at.fail(field, "unit '" + u + "' is not supported (m or mm)");
 }
 
 }  // namespace
@@ -135,6 +138,9 @@ ScalarVolume read_nrrd_volume(const std::filesystem::path& path) {
     for (int a = 0; a < 3; ++a) {
       const double scale = unit_scale(at, nrrd->spaceUnits[a]);
       const double* d = nrrd->axis[a].spaceDirection;
+      if (!std::isfinite(d[0]) || !std::isfinite(d[1]) || !std::isfinite(d[2]))
+        at.fail(at.line_of("space directions") > 0 ? "space directions" : "space",
+                "axis " + std::to_string(a) + " has no space direction: a volume in a space needs all three");
       for (int c = 0; c < 3; ++c)
         if (c != a && d[c] != 0.0)
           at.fail("space directions", "axis " + std::to_string(a) +
@@ -147,12 +153,20 @@ ScalarVolume read_nrrd_volume(const std::filesystem::path& path) {
       v.origin[a] = std::isfinite(o) ? scale * o : 0.0;
     }
   } else {
-    for (int a = 0; a < 3; ++a) {
-      const double s = nrrd->axis[a].spacing, m = nrrd->axis[a].min;
+    for (unsigned a = 0; a < 3; ++a) {
+      const int i = static_cast<int>(a);
+      const double scale = at.line_of("units") > 0 ? unit_scale(at, nrrd->axis[a].units, "units") : 1.0;
+      const double s = nrrd->axis[a].spacing;
       if (std::isfinite(s) && !(s > 0.0))
         at.fail("spacings", "axis " + std::to_string(a) + " needs a positive spacing");
-      v.spacing[a] = std::isfinite(s) ? s : 1.0;
-      v.origin[a] = std::isfinite(m) ? m : 0.0;
+      v.spacing[i] = scale * (std::isfinite(s) ? s : 1.0);
+      // With an axis minimum, sample 0 lies there (node centering, or none given) or half a spacing
+      // beyond it (cell centering); without, at 0.
+      const double m = nrrd->axis[a].min;
+      const double first =
+          !std::isfinite(m) ? 0.0
+                            : m + (nrrd->axis[a].center == nrrdCenterCell ? 0.5 * v.spacing[i] / scale : 0.0);
+      v.origin[i] = scale * (std::isfinite(first) ? first : 0.0);
     }
   }
   NrrdPtr floats(nrrdNew());
@@ -167,6 +181,10 @@ ScalarVolume read_nrrd_volume(const std::filesystem::path& path) {
 }
 
 void write_nrrd_volume(const ScalarVolume& volume, const std::filesystem::path& path) {
+  if (volume.values.size() != volume.size[0] * volume.size[1] * volume.size[2])
+    throw std::invalid_argument("write_nrrd_volume: " + std::to_string(volume.values.size()) +
+                                " values for a grid of " + std::to_string(volume.size[0]) + " x " +
+                                std::to_string(volume.size[1]) + " x " + std::to_string(volume.size[2]));
   Nrrd* nrrd = nrrdNew();
   // Teem does not write through the pointer it wraps.
   auto* data = const_cast<float*>(volume.values.data());
@@ -190,11 +208,7 @@ void write_nrrd_volume(const ScalarVolume& volume, const std::filesystem::path& 
   const int rc = nrrdSave(path.string().c_str(), nrrd, io);
   nrrdIoStateNix(io);
   if (rc != 0) fail();
-  for (int a = 0; a < 3; ++a) {
-    std::free(nrrd->spaceUnits[a]);
-    nrrd->spaceUnits[a] = nullptr;
-  }
-  nrrdNix(nrrd);
+  nrrdNix(nrrd);  // frees the header (the space units too), not the data it wraps
 }
 
 }  // namespace scalpel

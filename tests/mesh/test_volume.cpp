@@ -163,13 +163,20 @@ TEST_CASE("a bad NRRD volume names the file, the header line and the field") {
     (void)read_nrrd_volume(shortfile);
     FAIL("no error");
   } catch (const InputError& e) {
-    CHECK(e.line() == 10);
+    CHECK(e.line() == 11);  // after the header's 9 lines and the blank one
     CHECK(e.field() == "data");
   }
   // Not a number.
   const fs::path nanfile = temp_file("nan.nrrd");
   write(nanfile, header() + "1 2 3 4 5 6 7 nan\n");
-  CHECK_THROWS_AS((void)read_nrrd_volume(nanfile), InputError);
+  try {
+    (void)read_nrrd_volume(nanfile);
+    FAIL("no error");
+  } catch (const InputError& e) {
+    CHECK(e.line() == 11);
+    CHECK(e.field() == "data");
+    CHECK(std::string(e.what()).find("sample 7") != std::string::npos);
+  }
   CHECK_THROWS_WITH_AS((void)read_nrrd_volume(temp_file("missing.nrrd")), doctest::Contains("no such file"),
                        InputError);
 }
@@ -202,4 +209,20 @@ TEST_CASE("the layered seismic data set: values in [-1, 1] that follow the strat
   const double left = v.sample(Vec3(fault_at_z - 0.0015, 0.0, z)),
                right = v.sample(Vec3(fault_at_z + 0.0015, 0.0, z));
   CHECK(std::abs(left - right) > 0.2);
+}
+
+TEST_CASE("a NRRD volume without a space takes its axes' spacings, minimums, centering and units") {
+  const fs::path path = temp_file("axes.nrrd");
+  write(path,
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nspacings: 0.5 1 2\naxis mins: 10 20 30\n"
+        "centers: cell cell node\nunits: \"mm\" \"mm\" \"mm\"\nencoding: ascii\n\n1 2 3 4 5 6 7 8\n");
+  const ScalarVolume v = read_nrrd_volume(path);
+  CHECK((v.spacing - Vec3(0.0005, 0.001, 0.002)).norm() < 1e-15);
+  // Cell-centred: the first sample half a spacing beyond the minimum; node-centred: at it.
+  CHECK((v.origin - Vec3(0.01025, 0.0205, 0.030)).norm() < 1e-15);
+  const fs::path bad = temp_file("axes_bad.nrrd");
+  write(bad,
+        "NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nspacings: 1 1 1\nunits: \"cm\" \"cm\" \"cm\"\n"
+        "encoding: ascii\n\n1 2 3 4 5 6 7 8\n");
+  CHECK_THROWS_WITH_AS((void)read_nrrd_volume(bad), doctest::Contains("units"), InputError);
 }
