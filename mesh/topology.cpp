@@ -12,6 +12,23 @@ std::vector<BoundaryFace> boundary_faces(const TetMesh& mesh) {
   return out;
 }
 
+std::vector<std::uint32_t> node_pieces(const TetMesh& mesh) {
+  // Union-find over node slots, with path halving.
+  std::vector<std::uint32_t> root(mesh.node_capacity());
+  std::iota(root.begin(), root.end(), 0u);
+  const auto find = [&](std::uint32_t i) {
+    while (root[i] != i) i = root[i] = root[root[i]];
+    return i;
+  };
+  for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t) {
+    if (!mesh.tet_slot_alive(t)) continue;
+    const auto& v = mesh.tet_vertex_indices(t);
+    for (int k = 1; k < 4; ++k) root[find(v[static_cast<std::size_t>(k)])] = find(v[0]);
+  }
+  for (std::uint32_t i = 0; i < root.size(); ++i) root[i] = find(i);
+  return root;
+}
+
 Components connected_components(const TetMesh& mesh) {
   Components c;
   c.of_tet.assign(mesh.tet_capacity(), kInvalidIndex);

@@ -28,4 +28,9 @@ struct Components {
 // Components of the face-adjacency graph, numbered in order of their lowest tet slot.
 [[nodiscard]] Components connected_components(const TetMesh& mesh);
 
+// Pieces of nodes joined by shared tetrahedra (a vertex is enough: what stays together when a piece
+// is moved or held): per node slot, a representative node slot of its piece, the same for every node
+// of one piece. Free slots and nodes of no tetrahedron are their own pieces.
+[[nodiscard]] std::vector<std::uint32_t> node_pieces(const TetMesh& mesh);
+
 }  // namespace scalpel

@@ -5,13 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <numeric>
 #include <set>
 #include <sstream>
 
 #include "base/input_error.hpp"
 #include "mesh/manifold.hpp"
 #include "mesh/overlap.hpp"
+#include "mesh/topology.hpp"
 #include "mesh/volume.hpp"
 
 namespace scalpel {
@@ -362,19 +362,10 @@ void Simulation::push_tissue() {
 void Simulation::hold_severed_pieces(double t) {
   if (!pieces_changed_ || !anchored_) return;
   pieces_changed_ = false;
-  // Nodes joined by shared tetrahedra (union-find over node slots), then the pieces without a
-  // fixed node.
-  std::vector<std::uint32_t> root(mesh_.node_capacity());
-  std::iota(root.begin(), root.end(), 0u);
-  const auto find = [&](std::uint32_t i) {
-    while (root[i] != i) i = root[i] = root[root[i]];
-    return i;
-  };
+  // Nodes joined by shared tetrahedra, then the pieces without a fixed node.
+  const std::vector<std::uint32_t> root = node_pieces(mesh_);
+  const auto find = [&](std::uint32_t i) { return root[i]; };
   const std::vector<TetId> tets = mesh_.tets();
-  for (const TetId tet : tets) {
-    const auto v = mesh_.tet_vertex_indices(tet.index);
-    for (int k = 1; k < 4; ++k) root[find(v[k])] = find(v[0]);
-  }
   std::vector<std::uint8_t> anchored(root.size(), 0);
   for (const NodeId n : mesh_.nodes())
     if (tissue_->fixed(n)) anchored[find(n.index)] = 1;
@@ -412,25 +403,36 @@ void Simulation::hold_severed_pieces(double t) {
 }
 
 std::vector<std::uint32_t> Simulation::piece_of_node(std::uint32_t node) const {
-  std::vector<std::uint8_t> seen_node(mesh_.node_capacity(), 0), seen_tet(mesh_.tet_capacity(), 0);
-  std::vector<std::uint32_t> nodes{node}, stack{node};
-  seen_node[node] = 1;
-  while (!stack.empty()) {
-    const std::uint32_t n = stack.back();
-    stack.pop_back();
-    for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(n))) {
-      if (seen_tet[t]) continue;
-      seen_tet[t] = 1;
-      for (const std::uint32_t m : mesh_.tet_vertex_indices(t))
-        if (!seen_node[m]) {
-          seen_node[m] = 1;
-          nodes.push_back(m);
-          stack.push_back(m);
-        }
-    }
-  }
-  std::sort(nodes.begin(), nodes.end());
+  const std::vector<std::uint32_t> root = node_pieces(mesh_);
+  std::vector<std::uint32_t> nodes;
+  for (std::uint32_t n = 0; n < root.size(); ++n)
+    if (root[n] == root[node] && mesh_.node_slot_alive(n)) nodes.push_back(n);
   return nodes;
+}
+
+void Simulation::tally_piece(const std::vector<std::uint32_t>& nodes, MoveRecord& record,
+                             Vec3* centroid) const {
+  std::vector<std::uint8_t> in_piece(mesh_.node_capacity(), 0);
+  for (const std::uint32_t n : nodes) in_piece[n] = 1;
+  const auto& x = mesh_.positions();
+  Vec3 moment = Vec3::Zero();
+  double volume = 0.0;
+  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t) {
+    if (!mesh_.tet_slot_alive(t) || !in_piece[mesh_.tet_vertex_indices(t)[0]]) continue;
+    const auto& v = mesh_.tet_vertex_indices(t);
+    const double vol = signed_volume(x[v[0]], x[v[1]], x[v[2]], x[v[3]]);
+    moment += vol * (x[v[0]] + x[v[1]] + x[v[2]] + x[v[3]]) / 4.0;
+    volume += vol;
+    record.rest_volume += mesh_.rest_volume(mesh_.tet_handle(t));
+    ++record.tets;
+  }
+  if (centroid) *centroid = moment / volume;
+}
+
+std::string Simulation::refuse_move(MoveRecord record, std::string why) {
+  record.refused = std::move(why);
+  moves_.push_back(record);
+  return record.refused;
 }
 
 std::vector<std::uint32_t> Simulation::piece_at(const Vec3& point) const {
@@ -469,31 +471,12 @@ std::string Simulation::move_piece(const Vec3& point, const Eigen::Quaterniond& 
                                    const Vec3& translation) {
   MoveRecord record;
   record.time = frame_time_;
-  const auto refuse = [&](std::string why) {
-    record.refused = std::move(why);
-    moves_.push_back(record);
-    return record.refused;
-  };
-  if (!scenario_.tissue.rigid) return refuse("the tissue is not rigid");
-  if (cutter_->in_contact()) return refuse("the blade is in the tissue");
+  if (!scenario_.tissue.rigid) return refuse_move(record, "the tissue is not rigid");
+  if (cutter_->in_contact()) return refuse_move(record, "the blade is in the tissue");
   const std::vector<std::uint32_t> nodes = piece_at(point);
-  if (nodes.empty()) return refuse("no tissue at that point");
-  // The centroid of the piece's volume, where it turns.
-  std::vector<std::uint8_t> in_piece(mesh_.node_capacity(), 0);
-  for (const std::uint32_t n : nodes) in_piece[n] = 1;
-  const auto& x = mesh_.positions();
-  Vec3 moment = Vec3::Zero();
-  double volume = 0.0;
-  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t) {
-    if (!mesh_.tet_slot_alive(t) || !in_piece[mesh_.tet_vertex_indices(t)[0]]) continue;
-    const auto& v = mesh_.tet_vertex_indices(t);
-    const double vol = signed_volume(x[v[0]], x[v[1]], x[v[2]], x[v[3]]);
-    moment += vol * (x[v[0]] + x[v[1]] + x[v[2]] + x[v[3]]) / 4.0;
-    volume += vol;
-    record.rest_volume += mesh_.rest_volume(mesh_.tet_handle(t));
-    ++record.tets;
-  }
-  const Vec3 centre = moment / volume;
+  if (nodes.empty()) return refuse_move(record, "no tissue at that point");
+  Vec3 centre;  // of the piece's volume, where it turns
+  tally_piece(nodes, record, &centre);
   const Eigen::Matrix3d r = rotation.normalized().toRotationMatrix();
   transform_nodes(nodes, centre, r, translation);
   standing_moves_.push_back({mesh_.node_handle(nodes.front()), centre, translation, r});
@@ -505,25 +488,15 @@ std::string Simulation::undo_move() {
   MoveRecord record;
   record.time = frame_time_;
   record.undo = true;
-  const auto refuse = [&](std::string why) {
-    record.refused = std::move(why);
-    moves_.push_back(record);
-    return record.refused;
-  };
-  if (standing_moves_.empty()) return refuse("no move to undo");
-  if (cutter_->in_contact()) return refuse("the blade is in the tissue");
+  if (standing_moves_.empty()) return refuse_move(record, "no move to undo");
+  if (cutter_->in_contact()) return refuse_move(record, "the blade is in the tissue");
   const StandingMove m = standing_moves_.back();
   standing_moves_.pop_back();
-  if (!mesh_.alive(m.anchor)) return refuse("the piece is gone");
+  if (!mesh_.alive(m.anchor)) return refuse_move(record, "the piece is gone");
   const std::vector<std::uint32_t> nodes = piece_of_node(m.anchor.index);
   // x' = c + R (x - c) + t, so x = c + R^T (x' - t - c): about the centre moved by t.
   transform_nodes(nodes, m.centre + m.translation, m.rotation.transpose(), -m.translation);
-  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t)
-    if (mesh_.tet_slot_alive(t) &&
-        std::binary_search(nodes.begin(), nodes.end(), mesh_.tet_vertex_indices(t)[0])) {
-      ++record.tets;
-      record.rest_volume += mesh_.rest_volume(mesh_.tet_handle(t));
-    }
+  tally_piece(nodes, record, nullptr);
   moves_.push_back(record);
   return {};
 }

@@ -169,6 +169,11 @@ class Simulation {
   // shared nodes, sorted; empty when no tetrahedron holds it.
   [[nodiscard]] std::vector<std::uint32_t> piece_at(const Vec3& point) const;
   [[nodiscard]] std::vector<std::uint32_t> piece_of_node(std::uint32_t node) const;
+  // The piece's tetrahedra and rest volume into `record`; with `centroid`, the centroid of its
+  // volume where it lies now.
+  void tally_piece(const std::vector<std::uint32_t>& nodes, MoveRecord& record, Vec3* centroid) const;
+  // Records a move that did nothing, and why; returns why.
+  std::string refuse_move(MoveRecord record, std::string why);
   // x -> centre + rotation (x - centre) + translation for the nodes; refits the cutter.
   void transform_nodes(const std::vector<std::uint32_t>& nodes, const Vec3& centre,
                        const Eigen::Matrix3d& rotation, const Vec3& translation);

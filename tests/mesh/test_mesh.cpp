@@ -236,3 +236,26 @@ TEST_CASE("validate_local checks the neighbourhood of a change") {
     CHECK_FALSE(r.passed[4]);
   }
 }
+
+TEST_CASE("node pieces: tetrahedra joined by a shared vertex are one piece, apart they are two") {
+  TetMesh m;
+  const NodeId o = m.add_node(Vec3(0, 0, 0));
+  const NodeId a = m.add_node(Vec3(1, 0, 0)), b = m.add_node(Vec3(0, 1, 0)), c = m.add_node(Vec3(0, 0, 1));
+  const NodeId d = m.add_node(Vec3(-1, 0, 0)), e = m.add_node(Vec3(0, -1, 0)), f = m.add_node(Vec3(0, 0, -1));
+  const NodeId lone = m.add_node(Vec3(5, 5, 5));
+  (void)m.add_tet({o, a, b, c});
+  const TetId second = m.add_tet({o, d, f, e});  // meets the first at o only
+  REQUIRE(m.rest_volume(second) > 0);
+  auto piece = node_pieces(m);
+  CHECK(piece[a.index] == piece[o.index]);
+  CHECK(piece[d.index] == piece[a.index]);  // through the shared vertex
+  CHECK(piece[lone.index] == lone.index);
+  CHECK(connected_components(m).count() == 2);  // by faces they are apart
+  // Without the shared vertex, two pieces.
+  m.remove_tet(second);
+  const NodeId o2 = m.add_node(Vec3(0, 0, 0));
+  (void)m.add_tet({o2, d, f, e});
+  piece = node_pieces(m);
+  CHECK(piece[d.index] != piece[a.index]);
+  CHECK(piece[d.index] == piece[o2.index]);
+}
