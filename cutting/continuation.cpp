@@ -175,59 +175,123 @@ bool CutEngine::promote(const std::map<std::uint32_t, bool>& units, std::set<std
       if (left_behind(seed) && too_deep) ++stats.recursion_fallbacks;
       continue;
     }
-    // Cut nodes of the promoted part; those the rest shares stay cut nodes there, pinned.
-    std::set<std::uint32_t> ids, kept;
-    for (const std::uint32_t t : part)
-      crack_.at(t).any_cut_node([&](std::uint32_t id) {
-        ids.insert(id);
-        return false;
-      });
-    for (const std::uint32_t t : rest)
-      crack_.at(t).any_cut_node([&](std::uint32_t id) {
-        if (ids.count(id)) {
-          kept.insert(id);
-          cut_nodes_[id].pinned = true;
-        }
-        return false;
-      });
-    for (const std::uint32_t t : part) seal(t, rest);
-    // The crack faces stay part of the cut surface.
-    crack_.retire(part);
-    for (const std::uint32_t t : part) {
-      const CutUnit c = crack_.take(t);
-      const int region = units_.mesh().region(units_.mesh().tet_handle(t));
-      const int level = units_.level(t) + 1;
-      sweep_->on_tet_removed(t);
-      units_.remove(t);
-      for (std::size_t s = 0; s < c.live.size(); ++s) {
-        const std::uint32_t child = units_.add(mesh_, c.real[s], c.live[s].index, region, level);
-        crack_.set_unit_of(c.live[s].index, child);
-        sweep_->on_tet_added(child);
-      }
-      stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
-    }
-    // A mid node the blade never crossed takes its face's swept-surface normal from a cut edge
-    // while the face's cut data is still there: along_former_cut() tells surfaces apart by it.
-    for (const std::uint32_t id : ids) {
-      CutNode& n = cut_nodes_[id];
-      if (!kept.count(id) && n.kind == CutNode::Kind::Mid && n.sheet_normal.squaredNorm() == 0)
-        n.sheet_normal = face_sheet_normal(n.key);
-    }
-    for (const std::uint32_t id : ids) {
-      if (kept.count(id)) continue;
-      CutNode& n = cut_nodes_[id];
-      for (const NodeId c : n.copies) former_[c.index] = id;
-      cut_nodes_.forget(id);
-    }
-    // Seals whose unit has been promoted now are lifted.
-    seals_.lift_released();
-    ++stats.recursions;
-    if (!rest.empty()) ++stats.stroke_recursions;
-    stats.promoted_tets += part.size();
+    promote_part(part, rest, stats);
     refused.insert(rest.begin(), rest.end());
     any = true;
   }
   return any;
+}
+
+// Promotes `part` of a cut component (§6): its sub-tetrahedra become units one level deeper, its
+// cut nodes their corners. The cut nodes `rest` (the part still being cut) shares are pinned and the
+// faces and edges between them sealed.
+void CutEngine::promote_part(const std::vector<std::uint32_t>& part, const std::vector<std::uint32_t>& rest,
+                             CutStepStats& stats) {
+  // Cut nodes of the promoted part; those the rest shares stay cut nodes there, pinned.
+  std::set<std::uint32_t> ids, kept;
+  for (const std::uint32_t t : part)
+    crack_.at(t).any_cut_node([&](std::uint32_t id) {
+      ids.insert(id);
+      return false;
+    });
+  for (const std::uint32_t t : rest)
+    crack_.at(t).any_cut_node([&](std::uint32_t id) {
+      if (ids.count(id)) {
+        kept.insert(id);
+        cut_nodes_[id].pinned = true;
+      }
+      return false;
+    });
+  for (const std::uint32_t t : part) seal(t, rest);
+  // The crack faces stay part of the cut surface.
+  crack_.retire(part);
+  for (const std::uint32_t t : part) {
+    const CutUnit c = crack_.take(t);
+    const int region = units_.mesh().region(units_.mesh().tet_handle(t));
+    const int level = units_.level(t) + 1;
+    sweep_->on_tet_removed(t);
+    units_.remove(t);
+    for (std::size_t s = 0; s < c.live.size(); ++s) {
+      const std::uint32_t child = units_.add(mesh_, c.real[s], c.live[s].index, region, level);
+      crack_.set_unit_of(c.live[s].index, child);
+      sweep_->on_tet_added(child);
+    }
+    stats.recursion_depth = std::max<int>(stats.recursion_depth, level);
+  }
+  // A mid node the blade never crossed takes its face's swept-surface normal from a cut edge
+  // while the face's cut data is still there: along_former_cut() tells surfaces apart by it.
+  for (const std::uint32_t id : ids) {
+    CutNode& n = cut_nodes_[id];
+    if (!kept.count(id) && n.kind == CutNode::Kind::Mid && n.sheet_normal.squaredNorm() == 0)
+      n.sheet_normal = face_sheet_normal(n.key);
+  }
+  for (const std::uint32_t id : ids) {
+    if (kept.count(id)) continue;
+    CutNode& n = cut_nodes_[id];
+    for (const NodeId c : n.copies) former_[c.index] = id;
+    cut_nodes_.forget(id);
+  }
+  // Seals whose unit has been promoted now are lifted.
+  seals_.lift_released();
+  ++stats.recursions;
+  if (!rest.empty()) ++stats.stroke_recursions;
+  stats.promoted_tets += part.size();
+}
+
+// Sculpting (paper section 7.3): a severed piece is deleted. A unit the last cut went through holds
+// live elements of both pieces, so the units cannot simply be dropped: the cut components reaching
+// into the piece are promoted whole (the blade is out of the tissue, so none is still being cut),
+// after which every element of the piece stands for a unit of its own and goes with it. The
+// continuation may go one level past max_recursion_depth here: the bound limits the work a stroke
+// can start, and this is not a stroke.
+double CutEngine::remove_piece(std::span<const std::uint32_t> live_tets) {
+  if (in_contact_) throw std::logic_error("CutEngine::remove_piece: the blade is in the tissue");
+  std::vector<std::uint32_t> tets(live_tets.begin(), live_tets.end());
+  std::sort(tets.begin(), tets.end());
+  tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+  std::vector<std::uint32_t> nodes;
+  for (const std::uint32_t t : tets) {
+    if (!mesh_.tet_slot_alive(t)) throw std::logic_error("CutEngine::remove_piece: a removed element");
+    for (const std::uint32_t v : mesh_.tet_vertex_indices(t)) nodes.push_back(v);
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  for (const std::uint32_t n : nodes)
+    for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(n)))
+      if (!std::binary_search(tets.begin(), tets.end(), t))
+        throw std::logic_error("CutEngine::remove_piece: the elements share a node with the rest");
+
+  changes_.clear();
+  CutStepStats stats;
+  for (const std::uint32_t t : tets) {
+    const std::uint32_t unit = crack_.unit_of(t);
+    if (crack_.contains(unit)) promote_part(cut_component(unit), {}, stats);
+  }
+  double volume = 0.0;
+  for (const std::uint32_t t : tets) {
+    const std::uint32_t unit = crack_.unit_of(t);
+    if (crack_.contains(unit) || units_.live(unit) != t)
+      throw std::logic_error("CutEngine::remove_piece: an element is not a unit of its own");
+    const TetId live = mesh_.tet_handle(t);
+    volume += mesh_.rest_volume(live);
+    sweep_->on_tet_removed(unit);
+    units_.remove(unit);
+    crack_.set_unit_of(t, kInvalidIndex);
+    mesh_.remove_tet(live);
+    changes_.removed_tets.push_back(t);
+  }
+  for (const std::uint32_t n : nodes) {
+    mesh_.remove_node(mesh_.node_handle(n));
+    units_.remove_node(n);
+    former_.erase(n);
+    if (n < original_removed_.size()) original_removed_[n] = 1;
+  }
+  cut_nodes_.on_piece_removed(nodes);
+  coarse_volume_ -= volume;
+  totals_.recursions += stats.recursions;
+  totals_.promoted_tets += stats.promoted_tets;
+  totals_.max_recursion_depth = std::max(totals_.max_recursion_depth, stats.recursion_depth);
+  return volume;
 }
 
 // Seals the faces and edges of unit `t` (about to be promoted) that a unit of `rest` holds whole

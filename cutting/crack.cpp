@@ -3,6 +3,7 @@
 #include "cutting/crack.hpp"
 
 #include <algorithm>
+#include <map>
 #include <numeric>
 #include <set>
 
@@ -37,8 +38,23 @@ CutUnit& Crack::start(std::uint32_t unit, TetId live) {
 }
 
 void Crack::retire(const std::vector<std::uint32_t>& units) {
-  for (const CrackFace& f : crack_faces(units))
-    retired_faces_.push_back(face_without(cut_.at(f.unit).real[f.sub], f.face));
+  // Each crack face once, from the first sub-tetrahedron holding it; the other lip from the second.
+  std::map<std::array<GNode, 3>, std::size_t> index;
+  for (const std::uint32_t t : units) {
+    const CutUnit& c = cut_.at(t);
+    for (std::uint32_t s = 0; s < c.subs.size(); ++s)
+      for (int f = 0; f < 4; ++f) {
+        auto face = face_without(c.subs[s], f);
+        if (!nodes_.is_crack_face(face[0], face[1], face[2])) continue;
+        std::sort(face.begin(), face.end());
+        const std::array<NodeId, 3> real = face_without(c.real[s], f);
+        const auto [it, first] = index.try_emplace(face, retired_faces_.size());
+        if (first)
+          retired_faces_.push_back({real, real});
+        else
+          retired_faces_[it->second][1] = real;
+      }
+  }
 }
 
 CutUnit Crack::take(std::uint32_t unit) {
@@ -120,7 +136,15 @@ std::vector<std::array<NodeId, 3>> Crack::cut_surface_faces() const {
   std::vector<std::uint32_t> keys;
   for (const auto& [k, c] : cut_) keys.push_back(k);
   std::sort(keys.begin(), keys.end());
-  std::vector<std::array<NodeId, 3>> out = retired_faces_;
+  std::vector<std::array<NodeId, 3>> out;
+  auto alive = [&](const std::array<NodeId, 3>& f) {
+    return mesh_.alive(f[0]) && mesh_.alive(f[1]) && mesh_.alive(f[2]);
+  };
+  for (const auto& lips : retired_faces_)
+    if (alive(lips[0]))
+      out.push_back(lips[0]);
+    else if (alive(lips[1]))
+      out.push_back(lips[1]);
   for (const CrackFace& f : crack_faces(keys))
     out.push_back(face_without(cut_.at(f.unit).real[f.sub], f.face));
   return out;

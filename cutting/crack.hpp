@@ -51,7 +51,8 @@ class Crack {
   void set_unit_of(std::uint32_t live_slot, std::uint32_t unit);
 
   // The cut surface's triangles on one side (one lip's real nodes), each once: the crack faces of
-  // the cut units and those of units promoted since.
+  // the cut units and those of units promoted since (on the lip still there where a piece has been
+  // removed; none where both have).
   [[nodiscard]] std::vector<std::array<NodeId, 3>> cut_surface_faces() const;
 
  private:
@@ -68,8 +69,9 @@ class Crack {
   CutChanges& changes_;
   CutUnits cut_;
   std::vector<std::uint32_t> unit_of_;  // by live tet slot
-  // Crack faces of promoted units (one side's real nodes), for the cut surface.
-  std::vector<std::array<NodeId, 3>> retired_faces_;
+  // Crack faces of promoted units, for the cut surface: each lip's real nodes (the same twice where
+  // the crack has not opened).
+  std::vector<std::array<std::array<NodeId, 3>, 2>> retired_faces_;
   // Scratch of rebuild(), kept to avoid allocating on every step.
   struct {
     std::vector<std::array<NodeId, 4>> real;

@@ -56,6 +56,7 @@ CutEngine::CutEngine(TetMesh& mesh, CutOptions options)
   sweep_ = std::make_unique<BladeSweep>(units_.mesh());
   (void)canonicalize({});  // builds the canonical-state table now, not in the first cut step
   original_.resize(mesh.tet_capacity());
+  original_removed_.assign(mesh.node_capacity(), 0);
   for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t)
     if (mesh.tet_slot_alive(t)) original_[t] = mesh.tet_vertex_indices(t);
 }
@@ -688,7 +689,10 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   // negative weights are clamped and the rest rescaled.
   TetLocation out;
   out.original = mesh_.parent(at);
-  const auto& v = original_[out.original];
+  // Where a removed piece took corners of that tetrahedron with it, on the live element's own.
+  const std::array<std::uint32_t, 4>& first = original_[out.original];
+  const bool whole = std::none_of(first.begin(), first.end(), [&](std::uint32_t n) { return original_removed_[n]; });
+  const auto& v = whole ? first : mesh_.tet_vertex_indices(at.index);
   std::array<double, 4> w =
       volume_weights(p, corners(mesh_, v)).value_or(std::array<double, 4>{0.25, 0.25, 0.25, 0.25});
   double sum = 0;

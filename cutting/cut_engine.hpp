@@ -46,6 +46,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -174,6 +175,17 @@ class CutEngine {
   CutStepStats follow_tissue();
   // The last sweep touched the tissue: the stroke goes on.
   [[nodiscard]] bool in_contact() const { return in_contact_; }
+  // Deletes a piece the cuts have severed (sculpting, paper section 7.3): `live_tets` (live slots)
+  // must be every element of a part of the live mesh that shares no node with the rest, and the
+  // blade must be out of the tissue (std::logic_error otherwise). The cut components reaching into
+  // it are promoted (§6) first, so that each of its elements is a unit of its own; then its units,
+  // elements and nodes are removed. Whatever the piece shared a cut unit with stays cut where it
+  // was, one level deeper. changes() holds the removed elements. Returns the piece's rest volume
+  // [m^3], by which rest_volume() drops.
+  double remove_piece(std::span<const std::uint32_t> live_tets);
+  // [m^3] The rest volume every cut step keeps (invariant 4): the mesh's at construction, less the
+  // pieces removed.
+  [[nodiscard]] double rest_volume() const { return coarse_volume_; }
 
   [[nodiscard]] const CutTotals& totals() const { return totals_; }
   // CutTotals::state_transitions by the script's labels: "A0->B0": count.
@@ -201,7 +213,8 @@ class CutEngine {
   // parted by a fraction of its thickness). Weights are on the corners of the original tetrahedron
   // (before any cut) that holds p, which carry the mass and stiffness of their neighbourhood,
   // unlike cut nodes; where cutting has deformed it so that it no longer encloses p, negative
-  // weights are clamped. Costs a tree descent (positions as of the last refit()).
+  // weights are clamped. Where a removed piece (remove_piece()) took some of those corners, the
+  // weights are on the corners of the live element holding p. Costs a tree descent (positions as of the last refit()).
   [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p, double margin = 0.0) const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;
@@ -220,7 +233,8 @@ class CutEngine {
   // Invariant 5 (docs/invariants.md): every copy of every cut node lies, in the rest configuration,
   // on its parent coarse edge or face at non-negative weights summing to one (edge nodes strictly
   // inside their edge, face nodes inside their face). Returns one line per violation, empty if
-  // none; `tolerance` [m] on the distance from the weighted parent point.
+  // none; `tolerance` [m] on the distance from the weighted parent point. A promoted cut node whose
+  // edge or face lost a node to a removed piece has no parent left and is not checked.
   [[nodiscard]] std::string check_faithful(double tolerance) const {
     return cut_nodes_.check_faithful(tolerance);
   }
@@ -294,6 +308,8 @@ class CutEngine {
   // returns whether any was. Components that cannot be promoted join `refused` (counted once).
   bool promote(const std::map<std::uint32_t, bool>& units, std::set<std::uint32_t>& refused,
                CutStepStats& stats);
+  void promote_part(const std::vector<std::uint32_t>& part, const std::vector<std::uint32_t>& rest,
+                    CutStepStats& stats);
   // Seals the faces and edges of `unit`, about to be promoted, that a unit of `rest` holds whole.
   void seal(std::uint32_t unit, const std::vector<std::uint32_t>& rest);
   // Whether an edge crossing runs along an opened cut surface that holds both of the edge's ends,
@@ -336,6 +352,7 @@ class CutEngine {
   bool in_contact_ = false;      // the last sweep touched the tissue: the stroke goes on
   Vec3 heading_ = Vec3::Zero();  // the blade's last motion across itself, unit (follow_tissue())
   std::vector<std::array<std::uint32_t, 4>> original_;  // by slot: the tetrahedra at construction (locate())
+  std::vector<std::uint8_t> original_removed_;  // by slot: a node of the original mesh remove_piece() took
   // Scratch of sweep_to() and commit(), kept to avoid allocating on every step.
   StepEvents step_events_;
   SweepOrder sweep_order_;

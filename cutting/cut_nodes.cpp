@@ -291,6 +291,14 @@ void CutNodes::update_crossings(const FlatSet<Key>& now) {
     if (nodes_[mids_.at(k)].crossing) crossing_.insert(k);
 }
 
+void CutNodes::on_piece_removed(const std::vector<std::uint32_t>& removed) {
+  for (CutNode& n : nodes_) {
+    std::erase_if(n.copies, [&](NodeId c) { return !mesh_.alive(c); });
+    for (const std::uint32_t k : n.key)
+      if (std::binary_search(removed.begin(), removed.end(), k)) n.parent_removed = true;
+  }
+}
+
 std::vector<Vec3> CutNodes::cut_points() const {
   std::vector<Vec3> out;
   for (const CutNode& n : nodes_)
@@ -302,6 +310,7 @@ std::string CutNodes::check_faithful(double tolerance) const {
   std::string out;
   for (std::size_t id = 0; id < nodes_.size(); ++id) {
     const CutNode& n = nodes_[id];
+    if (n.copies.empty() || n.parent_removed) continue;  // undone, or beside a removed piece
     const int count = n.kind == CutNode::Kind::Edge ? 2 : 3;
     Vec3 expect = Vec3::Zero();
     double sum = 0.0, lo = 1.0;

@@ -52,6 +52,9 @@ struct CutNode {
   std::uint64_t stroke = 0;          // the stroke that cut it (last sample)
   // Shared with units promoted within a stroke (§6): it stays where it is and gains no copy.
   bool pinned = false;
+  // Promoted, and a removed piece took a node of its edge or face: no parent to hold it to any more
+  // (it no longer moves either: promoted cut nodes are corners of units).
+  bool parent_removed = false;
   std::vector<NodeId> copies;  // real nodes, one per group (group_of says which)
   // It has had two copies: the cut has gone through here, even where its groups joined again
   // and the copy no element used has gone.
@@ -101,6 +104,10 @@ class CutNodes {
   // Takes a cut node out of the lookup by face or edge: its units were promoted (§6), and its
   // copies are now their corners. It keeps its index and copies.
   void forget(std::uint32_t id);
+  // After a piece was removed (CutEngine::remove_piece): drops the copies the live mesh no longer
+  // has and marks the nodes whose edge or face lost a node of `removed` (sorted node slots). Call
+  // only once every cut node touching the piece has been forgotten.
+  void on_piece_removed(const std::vector<std::uint32_t>& removed);
 
   // Mid nodes of the faces the blade crosses now, which follow the blade (§4.1).
   [[nodiscard]] const FlatSet<Key>& crossing_faces() const { return crossing_; }

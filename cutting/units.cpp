@@ -30,6 +30,10 @@ void Units::remove(std::uint32_t unit) {
   mesh_.remove_tet(mesh_.tet_handle(unit));
 }
 
+void Units::remove_node(std::uint32_t live) {
+  if (mesh_.node_slot_alive(live)) mesh_.remove_node(mesh_.node_handle(live));
+}
+
 NodeId Units::node_of(const TetMesh& live_mesh, NodeId live) {
   while (!mesh_.node_slot_alive(live.index)) (void)mesh_.add_node(Vec3::Zero());
   const NodeId u = mesh_.node_handle(live.index);

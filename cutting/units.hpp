@@ -32,6 +32,8 @@ class Units {
 
   // Promotion (§6): removes a unit, then adds its live sub-tetrahedra as units one level deeper.
   void remove(std::uint32_t unit);
+  // Removes the unit node mirroring live node slot `live`, if there is one (no unit may use it).
+  void remove_node(std::uint32_t live);
   // A unit on the live element `live` (slot) with live nodes `nodes`, in `region`, at `level`;
   // returns its slot.
   std::uint32_t add(const TetMesh& live_mesh, const std::array<NodeId, 4>& nodes, std::uint32_t live,

@@ -363,7 +363,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     if (options.progress) options.progress(static_cast<double>(k) / static_cast<double>(frames));
   }
 
-  const ValidationReport check = validate(sim.mesh(), {.reference_volume = sim.initial_volume()});
+  const ValidationReport check =
+      validate(sim.mesh(), {.reference_volume = sim.initial_volume() - sim.deleted_volume()});
   const CutEngine& cutter = sim.cutter();
   const CutTotals& totals = cutter.totals();
   const HapticStats hs = loop.stats();
@@ -506,7 +507,9 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     nlohmann::ordered_json moves = nlohmann::ordered_json::array();
     for (const Simulation::MoveRecord& m : sim.moves())
       moves.push_back({{"time", m.time},
-                       {"kind", m.undo ? "undo" : "move"},
+                       {"kind", m.action == PieceAction::Undo     ? "undo"
+                                : m.action == PieceAction::Delete ? "delete"
+                                                                  : "move"},
                        {"done", m.refused.empty()},
                        {"refused", m.refused},
                        {"tetrahedra", m.tets},

@@ -405,7 +405,8 @@ void Parser::volume(const Value& v, VolumeSource& out) const {
 
 void Parser::moves(const Value& v, std::vector<PieceMove>& out) const {
   double last = 0.0;
-  for (const Value& item : list(v, "a list of moves ({at, point, translate, rotate} or {at, undo: true})")) {
+  for (const Value& item :
+       list(v, "a list of moves ({at, point, translate, rotate}, {at, undo: true} or {at, point, delete: true})")) {
     const Map m(*this, item);
     PieceMove move;
     move.where = yaml_location(item.mark);
@@ -417,8 +418,16 @@ void Parser::moves(const Value& v, std::vector<PieceMove>& out) const {
     last = move.at;
     if (const auto u = m.get("undo")) {
       m.only({"at", "undo"});
-      move.undo = boolean(*u);
-      if (!move.undo) fail(*u, "expected true (a move is given by point, translate and rotate)");
+      if (!boolean(*u)) fail(*u, "expected true (a move is given by point, translate and rotate)");
+      move.action = PieceAction::Undo;
+      out.push_back(move);
+      continue;
+    }
+    if (const auto d = m.get("delete")) {
+      m.only({"at", "point", "delete"});
+      if (!boolean(*d)) fail(*d, "expected true (a move is given by point, translate and rotate)");
+      move.action = PieceAction::Delete;
+      move.point = vector<3>(m.require("point"));
       out.push_back(move);
       continue;
     }

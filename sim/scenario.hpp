@@ -177,10 +177,17 @@ struct VolumeSource {
 // holds `point` (its tetrahedra, and all joined to them by a node), turned by `rotation` about its
 // centroid, then shifted by `translation`; or, with `undo`, the last move still standing taken back.
 // Only with rigid tissue.
+// What a scenario's move does to a piece (volume data and sculpting, paper sections 7.1 and 7.3).
+enum class PieceAction : std::uint8_t {
+  Move,    // turns and shifts it
+  Undo,    // takes back the last move still standing
+  Delete,  // removes it from the mesh
+};
+
 struct PieceMove {
   double at = 0.0;  // [s] session time: applied at the end of the first frame at or after it
-  bool undo = false;
-  Vec3 point = Vec3::Zero();        // [m] where the piece is now
+  PieceAction action = PieceAction::Move;
+  Vec3 point = Vec3::Zero();        // [m] where the piece is now (Move, Delete)
   Vec3 translation = Vec3::Zero();  // [m]
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   SourceLocation where;

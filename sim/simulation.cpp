@@ -487,7 +487,7 @@ std::string Simulation::move_piece(const Vec3& point, const Eigen::Quaterniond& 
 std::string Simulation::undo_move() {
   MoveRecord record;
   record.time = frame_time_;
-  record.undo = true;
+  record.action = PieceAction::Undo;
   if (standing_moves_.empty()) return refuse_move(record, "no move to undo");
   if (cutter_->in_contact()) return refuse_move(record, "the blade is in the tissue");
   const StandingMove m = standing_moves_.back();
@@ -501,10 +501,35 @@ std::string Simulation::undo_move() {
   return {};
 }
 
+std::string Simulation::delete_piece(const Vec3& point) {
+  MoveRecord record;
+  record.time = frame_time_;
+  record.action = PieceAction::Delete;
+  if (!scenario_.tissue.rigid) return refuse_move(record, "the tissue is not rigid");
+  if (cutter_->in_contact()) return refuse_move(record, "the blade is in the tissue");
+  const std::vector<std::uint32_t> nodes = piece_at(point);
+  if (nodes.empty()) return refuse_move(record, "no tissue at that point");
+  if (nodes.size() == mesh_.node_count()) return refuse_move(record, "it is all the tissue left");
+  tally_piece(nodes, record, nullptr);
+  std::vector<std::uint32_t> tets;
+  for (const std::uint32_t n : nodes)
+    for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(n))) tets.push_back(t);
+  deleted_volume_ += cutter_->remove_piece(tets);
+  hand_over_cut();
+  cutter_->refit();
+  update_bounds();
+  moves_.push_back(record);
+  return {};
+}
+
 void Simulation::apply_scheduled_moves(double t) {
   for (; next_move_ < scenario_.moves.size() && scenario_.moves[next_move_].at <= t + 1e-12; ++next_move_) {
     const PieceMove& m = scenario_.moves[next_move_];
-    (void)(m.undo ? undo_move() : move_piece(m.point, m.rotation, m.translation));
+    switch (m.action) {
+      case PieceAction::Move: (void)move_piece(m.point, m.rotation, m.translation); break;
+      case PieceAction::Undo: (void)undo_move(); break;
+      case PieceAction::Delete: (void)delete_piece(m.point); break;
+    }
   }
 }
 

@@ -112,14 +112,23 @@ class Simulation {
   // tissue, and without rigid tissue.
   std::string move_piece(const Vec3& point, const Eigen::Quaterniond& rotation, const Vec3& translation);
   std::string undo_move();
+  // The piece holding `point`: the node slots of the live tetrahedra joined to the one there by
+  // shared nodes, sorted; empty when no tetrahedron holds it.
+  [[nodiscard]] std::vector<std::uint32_t> piece_at(const Vec3& point) const;
+  // Sculpting (paper section 7.3): deletes the piece holding `point` from the mesh
+  // (CutEngine::remove_piece). Not undoable; an earlier move of it can no longer be undone.
+  // Refused as a move is, and for the last piece of tissue left.
+  std::string delete_piece(const Vec3& point);
+  // [m^3] The rest volume of the pieces deleted.
+  [[nodiscard]] double deleted_volume() const { return deleted_volume_; }
   struct MoveRecord {
     double time = 0;  // [s] the frame that applied it
-    bool undo = false;
+    PieceAction action = PieceAction::Move;
     std::string refused;     // why it did nothing; empty when done
     std::size_t tets = 0;    // of the piece moved
     double rest_volume = 0;  // [m^3] of the piece moved
   };
-  // Every move and undo asked for, in order.
+  // Every move, undo and deletion asked for, in order.
   [[nodiscard]] const std::vector<MoveRecord>& moves() const { return moves_; }
 
   // The score of the scenario's task so far (docs/scoring.md); none without a task.
@@ -165,9 +174,6 @@ class Simulation {
   void hand_over_cut();
   // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).
   void hold_severed_pieces(double t);
-  // The piece holding `point`: the node slots of the live tetrahedra joined to the one there by
-  // shared nodes, sorted; empty when no tetrahedron holds it.
-  [[nodiscard]] std::vector<std::uint32_t> piece_at(const Vec3& point) const;
   [[nodiscard]] std::vector<std::uint32_t> piece_of_node(std::uint32_t node) const;
   // The piece's tetrahedra and rest volume into `record`; with `centroid`, the centroid of its
   // volume where it lies now.
@@ -229,6 +235,7 @@ class Simulation {
   std::vector<StandingMove> standing_moves_;
   std::vector<MoveRecord> moves_;
   std::size_t next_move_ = 0;  // the scenario's next move
+  double deleted_volume_ = 0.0;
   std::size_t samples_ = 0;
   ToolSample last_;
   std::optional<ToolSample> frame_start_;  // the last sample before this frame

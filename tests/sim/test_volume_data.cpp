@@ -352,6 +352,70 @@ TEST_CASE(
   CHECK(back < 1e-17);  // [m] round-off of a turn there and back
 }
 
+TEST_CASE(
+    "a severed piece is deleted: gone from the mesh, its volume off the total, the rest closed and valid, and "
+    "cut again across where the pieces parted" *
+    doctest::test_suite("slow")) {
+  const Halves h = halves();
+  Simulation sim(h.scenario);
+  run(sim, h.samples);
+  REQUIRE_FALSE(sim.cutter().in_contact());
+  const double whole = sim.mesh().total_rest_volume();
+  // A move of the far half first: its undo must find the piece gone.
+  REQUIRE(sim.move_piece(Vec3(0.003, 0.006, -0.004), Eigen::Quaterniond::Identity(), Vec3(0, 0.002, 0)) ==
+          "");
+  CHECK(sim.delete_piece(Vec3(0.1, 0.1, 0.1)) == "no tissue at that point");
+
+  // The half beyond y = 0.0013 (24 x 8.7 x 8 mm), where it lies now.
+  REQUIRE(sim.delete_piece(Vec3(0.003, 0.008, -0.004)) == "");
+  const double far = 0.024 * 0.0087 * 0.008, near = 0.024 * 0.0113 * 0.008;
+  CHECK(sim.moves().back().action == PieceAction::Delete);
+  CHECK(sim.moves().back().rest_volume == doctest::Approx(far).epsilon(1e-9));
+  CHECK(sim.deleted_volume() == doctest::Approx(far).epsilon(1e-9));
+  CHECK(sim.mesh().total_rest_volume() == doctest::Approx(whole - far).epsilon(1e-12));
+  CHECK(sim.mesh().total_rest_volume() == doctest::Approx(near).epsilon(1e-9));
+  CHECK(sim.cutter().rest_volume() == doctest::Approx(near).epsilon(1e-9));
+  for (const NodeId n : sim.mesh().nodes()) CHECK(sim.mesh().rest(n).y() <= 0.0013 + 1e-9);
+  CHECK(sim.delete_piece(Vec3(0.003, 0.008, -0.004)) == "no tissue at that point");
+  CHECK(sim.undo_move() == "the piece is gone");
+  // Closed, oriented and conforming, with the volume that is left.
+  const auto check = validate(sim.mesh(), {.reference_volume = sim.initial_volume() - sim.deleted_volume()});
+  CHECK_MESSAGE(check.ok(), check.summary());
+  CHECK(sim.cutter().check_faithful(1e-12) == "");
+  // The cut surface is the kept half's face at y = 0.0013: 24 x 8 mm.
+  CHECK(sim.cutter().cut_surface_area() == doctest::Approx(0.024 * 0.008).epsilon(1e-6));
+  for (const auto& f : sim.cutter().cut_surface_faces())
+    for (const NodeId n : f) CHECK(sim.mesh().alive(n));
+
+  // Cut again: a blade along y at x = 3.1 mm, 4 mm deep, out through the face where the halves
+  // parted. Valid after every frame, against the volume left.
+  std::vector<ToolSample> stroke;
+  const double t0 = h.samples.back().t + 0.5;
+  for (int k = 0; k <= 1200; ++k) {
+    ToolSample s;
+    s.t = t0 + k / 1000.0;
+    const double u = k / 1200.0;
+    const double depth = std::min(1.0, 5 * u) * 0.016;
+    s.position = Vec3(0.0031, -0.008 + 0.014 * std::max(0.0, (u - 0.2) / 0.8), 0.012 - depth);
+    stroke.push_back(s);
+  }
+  std::string broken;
+  run(sim, stroke, [&] {
+    const auto r = validate(sim.mesh(), {.reference_volume = sim.initial_volume() - sim.deleted_volume()});
+    if (!r.ok() && broken.empty()) broken = r.summary();
+  });
+  CHECK(broken == "");
+  CHECK(sim.cutter().totals().edges_cut > 0);
+  CHECK(sim.cutter().check_faithful(1e-12) == "");
+  // The new cut reaches the old face: the kept half is now two quarters, each with its own volume.
+  const std::vector<std::uint32_t> left = sim.piece_at(Vec3(-0.004, -0.004, -0.002));
+  const std::vector<std::uint32_t> right = sim.piece_at(Vec3(0.008, -0.004, -0.002));
+  REQUIRE_FALSE(left.empty());
+  CHECK(left == right);  // 4 mm of 8 deep: joined below the cut
+  // Deleting the last piece is refused.
+  CHECK(sim.delete_piece(Vec3(-0.004, -0.004, -0.002)) == "it is all the tissue left");
+}
+
 TEST_CASE("a scenario's moves run at their times and are reported, and bad moves name their line and key" *
           doctest::test_suite("slow")) {
   const Halves h = halves(
@@ -360,7 +424,7 @@ TEST_CASE("a scenario's moves run at their times and are reported, and bad moves
       "  - {at: 10, point: [0, 0.006, -0.004], translate: [0, 0.01, 0]}\n"
       "  - {at: 10, undo: true}\n");
   REQUIRE(h.scenario.moves.size() == 3);
-  CHECK(h.scenario.moves[2].undo);
+  CHECK(h.scenario.moves[2].action == PieceAction::Undo);
   const double end = h.samples.back().t;
   std::vector<ToolSample> samples = h.samples;
   ToolSample s = samples.back();
@@ -373,7 +437,7 @@ TEST_CASE("a scenario's moves run at their times and are reported, and bad moves
   CHECK(sim.moves()[0].time < end);
   CHECK(sim.moves()[1].refused.empty());
   CHECK(sim.moves()[1].rest_volume == doctest::Approx(0.024 * 0.0087 * 0.008).epsilon(1e-9));
-  CHECK(sim.moves()[2].undo);
+  CHECK(sim.moves()[2].action == PieceAction::Undo);
   CHECK(sim.moves()[2].refused.empty());
 
   struct Case {
@@ -404,7 +468,7 @@ TEST_CASE("a scenario's moves run at their times and are reported, and bad moves
 
 TEST_CASE(
     "sculpting: the bundled bracket's V-notch frees a wedge of exactly the volume the two cut planes bound, "
-    "taken aside" *
+    "taken aside and deleted" *
     doctest::test_suite("slow")) {
   const fs::path root(SCALPEL_SOURCE_DIR);
   const Scenario scenario = load_scenario(root / "config/scenarios/bracket_sculpt.yaml");
@@ -417,14 +481,22 @@ TEST_CASE(
   CHECK(result.invariants_ok);
   CHECK(result.report["warnings"].empty());
   CHECK_FALSE(result.report.contains("task"));  // unscored
-  CHECK(result.report["mesh"]["final"]["components"] == 2);
+  CHECK(result.report["mesh"]["final"]["components"] == 1);
   CHECK(result.report["mesh"]["initial"]["tetrahedra"] == 3661);
   // The planes x + y = 56 mm and x - y = 32 mm meet 6 mm inside the 10 mm base's end face x = 50 mm:
   // a triangle of 12 x 6 / 2 mm^2 through the base.
+  const double wedge = 12.0 * 6.0 / 2.0 * 10.0;  // [mm^3]
   const auto& moves = result.report["piece_moves"];
-  REQUIRE(moves.size() == 1);
+  REQUIRE(moves.size() == 2);
   CHECK(moves[0]["done"].get<bool>());
-  CHECK(moves[0]["rest_volume_mm3"].get<double>() == doctest::Approx(12.0 * 6.0 / 2.0 * 10.0).epsilon(1e-7));
+  CHECK(moves[0]["rest_volume_mm3"].get<double>() == doctest::Approx(wedge).epsilon(1e-7));
+  CHECK(moves[1]["kind"] == "delete");
+  CHECK(moves[1]["done"].get<bool>());
+  CHECK(moves[1]["rest_volume_mm3"].get<double>() == doctest::Approx(wedge).epsilon(1e-7));
+  // What is left is the part less the wedge, closed and oriented (invariants_ok above).
+  const double initial = result.report["mesh"]["initial"]["rest_volume"].get<double>() * 1e9;
+  const double final_volume = result.report["mesh"]["final"]["rest_volume"].get<double>() * 1e9;
+  CHECK(final_volume == doctest::Approx(initial - wedge).epsilon(1e-9));
 }
 
 TEST_CASE("an unscored task guides the log generator and keeps no score" * doctest::test_suite("slow")) {
