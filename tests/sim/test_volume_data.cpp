@@ -447,6 +447,9 @@ TEST_CASE("a scenario's moves run at their times and are reported, and bad moves
       {"moves:\n  - {at: 2, undo: true}\n  - {at: 1, undo: true}\n", "moves[1].at", "time order"},
       {"moves:\n  - {at: 1, undo: false}\n", "moves[0].undo", "expected true"},
       {"moves:\n  - {at: 1, translate: [0, 0, 1]}\n", "moves[0].point", "point"},
+      {"moves:\n  - {at: 1, delete: true}\n", "moves[0].point", "point"},
+      {"moves:\n  - {at: 1, point: [0, 0, 0], delete: false}\n", "moves[0].delete", "expected true"},
+      {"moves:\n  - {at: 1, point: [0, 0, 0], delete: true, translate: [0, 0, 1]}\n", "moves[0].translate", ""},
       {"moves:\n  - {at: 1, point: [0, 0, 0], rotate: {axis: [0, 0, 0], angle_deg: 5}}\n",
        "moves[0].rotate.axis", "non-zero"},
   };
