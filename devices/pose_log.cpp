@@ -166,7 +166,10 @@ void PoseLogReader::read_preamble() {
       const std::size_t colon = body.find(':');
       if (colon == std::string_view::npos) continue;  // a comment
       const std::string_view key = trim(body.substr(0, colon));
-      if (!key.empty()) metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
+      if (!key.empty()) {
+        metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
+        metadata_lines_.push_back(line_);
+      }
       continue;
     }
     std::array<FieldText, kFrameColumns + 1> fields;
@@ -200,7 +203,10 @@ bool PoseLogReader::next(ToolSample& sample) {
     const std::size_t colon = body.find(':');
     if (colon == std::string_view::npos) continue;
     const std::string_view key = trim(body.substr(0, colon));
-    if (!key.empty()) metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
+    if (!key.empty()) {
+      metadata_.emplace_back(std::string(key), std::string(trim(body.substr(colon + 1))));
+      metadata_lines_.push_back(line_);
+    }
   }
 
   std::array<FieldText, kFrameColumns + 1> f;

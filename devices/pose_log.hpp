@@ -62,6 +62,8 @@ class PoseLogReader {
 
   [[nodiscard]] const std::string& name() const { return name_; }
   [[nodiscard]] const PoseLogMetadata& metadata() const { return metadata_; }
+  // The 1-based line of metadata entry i.
+  [[nodiscard]] int metadata_line(std::size_t i) const { return metadata_lines_.at(i); }
   // The value of the first metadata entry with `key`, if any. Entries after the header (a trailer)
   // count once the reader has reached them.
   [[nodiscard]] std::optional<std::string> metadata(std::string_view key) const;
@@ -88,6 +90,7 @@ class PoseLogReader {
   std::istream* in_;
   std::string name_;
   PoseLogMetadata metadata_;
+  std::vector<int> metadata_lines_;
   bool has_force_ = false;
   bool has_frame_ = false;
   std::uint64_t frame_ = 0;

@@ -19,6 +19,7 @@
 #include "mesh/quality.hpp"
 #include "mesh/topology.hpp"
 #include "mesh/validate.hpp"
+#include "sim/piece_events.hpp"
 #include "sim/quantile.hpp"
 #include "sim/simulation.hpp"
 #include "sim/task_score.hpp"
@@ -222,6 +223,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   std::vector<std::uint64_t> sample_frames;
   std::uint64_t frame_count = 0;
   bool verbatim = false;
+  std::vector<PieceEvent> piece_events;  // the trainee's moves of pieces, in frame order
   json warnings = json::array();  // on the session's input and physics (docs/formats.md)
   const auto warn = [&warnings](const std::string& code, const std::string& message) {
     warnings.push_back({{"code", code}, {"message", message}});
@@ -250,6 +252,15 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       if (verbatim) sample_frames.push_back(reader.frame());
     }
     if (reader.torn_line() != 0) warn("log_torn", reader.torn_warning());
+    for (std::size_t i = 0; i < reader.metadata().size(); ++i) {
+      if (reader.metadata()[i].first != kPieceEventKey) continue;
+      const int line = reader.metadata_line(i);
+      if (!verbatim)
+        throw InputError(log_path.string(), line, 0, "piece", "piece events need verbatim playback");
+      piece_events.push_back(parse_piece_event(reader.metadata()[i].second, log_path.string(), line));
+      if (piece_events.size() > 1 && piece_events.back().frame < piece_events[piece_events.size() - 2].frame)
+        throw InputError(log_path.string(), line, 0, "piece.frame", "piece events go back in frames");
+    }
     if (log.empty()) throw InputError(log_path.string(), 0, 0, "", "the pose log holds no samples");
     if (verbatim) {
       // The session's frames, also those after its last sample (the trailer a finished session
@@ -309,6 +320,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   std::vector<double> frame_seconds;
   ToolSample sample;
   std::size_t taken = 0;  // verbatim: samples taken by the simulation
+  std::size_t next_event = 0;
   for (std::size_t k = 1; k <= frames; ++k) {
     const auto frame_start = std::chrono::steady_clock::now();
     const double end = static_cast<double>(k) / visual_rate;
@@ -322,6 +334,9 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
         sim.on_sample(sample);
         ++taken;
       }
+      // The moves of pieces the session applied at the end of this frame.
+      for (; next_event < piece_events.size() && piece_events[next_event].frame <= k; ++next_event)
+        sim.queue_move(piece_events[next_event].move);
     } else {
       // Haptic cycles up to the end of frame k: t < k / visual_rate.
       const auto target =
@@ -503,7 +518,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       report["tool_contact"]["indentation"] = indentation_json(*press, sim);
   }
   if (const auto score = sim.task_score()) report["task"] = task_json(*score);
-  if (!scenario.moves.empty()) {
+  if (!sim.moves().empty()) {
     nlohmann::ordered_json moves = nlohmann::ordered_json::array();
     for (const Simulation::MoveRecord& m : sim.moves())
       moves.push_back({{"time", m.time},
@@ -517,7 +532,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
     report["piece_moves"] = moves;
     for (std::size_t i = 0; i < sim.moves().size(); ++i)
       if (!sim.moves()[i].refused.empty())
-        warn("piece_move_refused", "moves[" + std::to_string(i) + "] at " +
+        warn("piece_move_refused", "piece_moves[" + std::to_string(i) + "] at " +
                                        std::to_string(sim.moves()[i].time) +
                                        " s did nothing: " + sim.moves()[i].refused);
   }

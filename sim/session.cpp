@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "sim/piece_events.hpp"
 #include "sim/quantile.hpp"
 #include "sim/simulation.hpp"
 
@@ -96,6 +97,17 @@ void Session::begin_attempt() {
 
 void Session::record(const ToolSample& s, std::uint64_t frame) {
   if (options_.record.empty()) return;
+  open_recording();
+  writer_->write(s, frame);
+}
+
+void Session::record_piece(const PieceMove& move, std::uint64_t frame) {
+  if (options_.record.empty()) return;
+  open_recording();
+  writer_->write_trailer(kPieceEventKey, format_piece_event({frame, move}));
+}
+
+void Session::open_recording() {
   if (!writer_) {
     // Opened at the attempt's first sample: an attempt without one leaves no file.
     const std::filesystem::path path = attempt_path(options_.record, recordings_.size() + 1);
@@ -110,7 +122,6 @@ void Session::record(const ToolSample& s, std::uint64_t frame) {
                                               true, true);
     recordings_.push_back(path);
   }
-  writer_->write(s, frame);
 }
 
 void Session::finish_recording() {
@@ -146,6 +157,9 @@ void Session::publish_frame(double frame_seconds) {
   if (score) s.task = *score;
   s.tip = sim_->scorer().last();
   s.recorded = writer_ ? writer_->samples_written() : 0;
+  s.pieces_taken = pieces_taken_;
+  const auto& moves = sim_->moves();
+  s.piece_refusal = moves.empty() ? std::string() : moves.back().refused;
   frames_.publish();
   if (on_publish_) on_publish_();
 }
@@ -206,6 +220,7 @@ void Session::run_frames() {
           std::this_thread::sleep_for(std::chrono::microseconds(200));
       }
       drop_queued();
+      for (PieceMove drop; piece_requests_.pop(drop);) ++pieces_taken_;  // moves of the attempt before
       resets_done_ = resets;
       begin_attempt();
       k = 0;
@@ -263,6 +278,12 @@ void Session::run_frames() {
       sim_->on_sample(s);
       last = s;
       has_last = true;
+    }
+    // The trainee's moves of pieces, applied at the end of this frame and recorded with it.
+    for (PieceMove m; piece_requests_.pop(m);) {
+      ++pieces_taken_;
+      sim_->queue_move(m);
+      record_piece(m, k);
     }
     sim_->end_frame(static_cast<double>(k) / visual_rate, forces_);
     attempt_frames_ = k;

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "base/spsc_ring.hpp"
 #include "base/triple_buffer.hpp"
 #include "devices/device.hpp"
 #include "devices/playback_device.hpp"
@@ -51,6 +52,11 @@ struct SessionStatus {
   TaskScore task;
   ToolTracePoint tip;        // the tip at the frame's last sample: in the tissue, its depth
   std::size_t recorded = 0;  // samples written to the recording of this attempt
+  // Moves of pieces asked for by request_piece() that the simulation has taken (or dropped at a
+  // reset), since the start; the last move's refusal (sim/simulation.hpp), empty when done. While
+  // paused, they wait.
+  std::uint64_t pieces_taken = 0;
+  std::string piece_refusal;
 };
 
 struct SessionFrame {
@@ -93,6 +99,10 @@ class Session {
   void set_paused(bool paused);
   [[nodiscard]] bool paused() const { return paused_.load(std::memory_order_relaxed); }
   void set_wireframe_edges(bool on) { edges_.store(on, std::memory_order_relaxed); }
+  // One thread only (the renderer's): a move, undo or deletion of a piece of rigid tissue
+  // (Simulation::queue_move), applied at the end of the next frame and recorded with it
+  // (sim/piece_events.hpp). False when too many wait already.
+  bool request_piece(const PieceMove& move) { return piece_requests_.push(move); }
   // Empty while the simulation runs; why it stopped when it failed (a bad step, a full disk).
   [[nodiscard]] std::string error() const;
   [[nodiscard]] bool failed() const { return failed_.load(std::memory_order_acquire); }
@@ -113,6 +123,8 @@ class Session {
   void begin_attempt();
   void publish_frame(double frame_seconds);
   void record(const ToolSample& s, std::uint64_t frame);
+  void record_piece(const PieceMove& move, std::uint64_t frame);
+  void open_recording();
   void finish_recording();
   void drop_queued();  // samples the attempt does not take (paused, or from before a reset)
 
@@ -125,6 +137,7 @@ class Session {
   std::unique_ptr<HapticLoop> loop_;
   std::unique_ptr<Simulation> sim_;
   TripleBuffer<SessionFrame> frames_;
+  SpscRing<PieceMove> piece_requests_{16};  // renderer -> simulation
 
   std::atomic<std::uint64_t> reset_requests_{0};
   std::atomic<bool> paused_{false}, edges_{false}, stop_{false}, failed_{false};
@@ -141,6 +154,7 @@ class Session {
   std::string error_;  // guarded by failed_: written before it is set
   std::uint64_t last_not_ok_ = 0;
   std::uint64_t popped_ = 0;  // samples taken from the queue
+  std::uint64_t pieces_taken_ = 0;
   std::function<void()> on_publish_;
 };
 

@@ -107,6 +107,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
     }
     snapshots_->show_field(id, shown);
   }
+  snapshots_->show_pieces(scenario_.tissue.rigid);  // rigid pieces can be moved in the window
   CutOptions cut_options;
   cut_options.max_recursion_depth = scenario_.simulation.cut_recursion_depth;
   cutter_ = std::make_unique<CutEngine>(mesh_, cut_options);
@@ -522,15 +523,19 @@ std::string Simulation::delete_piece(const Vec3& point) {
   return {};
 }
 
-void Simulation::apply_scheduled_moves(double t) {
-  for (; next_move_ < scenario_.moves.size() && scenario_.moves[next_move_].at <= t + 1e-12; ++next_move_) {
-    const PieceMove& m = scenario_.moves[next_move_];
-    switch (m.action) {
-      case PieceAction::Move: (void)move_piece(m.point, m.rotation, m.translation); break;
-      case PieceAction::Undo: (void)undo_move(); break;
-      case PieceAction::Delete: (void)delete_piece(m.point); break;
-    }
+void Simulation::apply_move(const PieceMove& m) {
+  switch (m.action) {
+    case PieceAction::Move: (void)move_piece(m.point, m.rotation, m.translation); break;
+    case PieceAction::Undo: (void)undo_move(); break;
+    case PieceAction::Delete: (void)delete_piece(m.point); break;
   }
+}
+
+void Simulation::apply_scheduled_moves(double t) {
+  for (; next_move_ < scenario_.moves.size() && scenario_.moves[next_move_].at <= t + 1e-12; ++next_move_)
+    apply_move(scenario_.moves[next_move_]);
+  for (const PieceMove& m : queued_moves_) apply_move(m);
+  queued_moves_.clear();
 }
 
 void Simulation::end_frame(double t, ForceChannel& forces) {

@@ -119,6 +119,10 @@ class Simulation {
   // (CutEngine::remove_piece). Not undoable; an earlier move of it can no longer be undone.
   // Refused as a move is, and for the last piece of tissue left.
   std::string delete_piece(const Vec3& point);
+  // A move, undo or deletion asked for during the session (the trainee's window, or a recording's
+  // piece events, sim/piece_events.hpp): applied at the end of the current frame, after the
+  // scenario's moves due then, in the order queued. Its `at` is not used.
+  void queue_move(const PieceMove& move) { queued_moves_.push_back(move); }
   // [m^3] The rest volume of the pieces deleted.
   [[nodiscard]] double deleted_volume() const { return deleted_volume_; }
   struct MoveRecord {
@@ -183,7 +187,9 @@ class Simulation {
   // x -> centre + rotation (x - centre) + translation for the nodes; refits the cutter.
   void transform_nodes(const std::vector<std::uint32_t>& nodes, const Vec3& centre,
                        const Eigen::Matrix3d& rotation, const Vec3& translation);
-  // Applies the scenario's moves due at time t.
+  // Applies one move, undo or deletion.
+  void apply_move(const PieceMove& move);
+  // Applies the scenario's moves due at time t, then the queued ones.
   void apply_scheduled_moves(double t);
   // Where a point of the blade (the tip, and points of the edge kTouchSpacing apart) first crosses
   // the outer surface inwards between two poses, if one does.
@@ -236,6 +242,7 @@ class Simulation {
   std::vector<MoveRecord> moves_;
   std::size_t next_move_ = 0;  // the scenario's next move
   double deleted_volume_ = 0.0;
+  std::vector<PieceMove> queued_moves_;
   std::size_t samples_ = 0;
   ToolSample last_;
   std::optional<ToolSample> frame_start_;  // the last sample before this frame

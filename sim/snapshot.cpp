@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mesh/topology.hpp"
 #include "sim/simulation.hpp"
 
 namespace scalpel {
@@ -66,6 +67,32 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
   out.surface.clear();
   out.edges.clear();
   std::vector<SurfaceVertex>& s = out.surface;
+  out.triangle_piece.clear();
+  out.edge_piece.clear();
+  out.pieces.clear();
+  // Pieces: node_pieces() labels, numbered in slot order of their first node.
+  std::vector<std::uint32_t> label, index;
+  if (pieces_) {
+    label = node_pieces(mesh);
+    index.assign(label.size(), kInvalidIndex);
+    for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t) {
+      if (!mesh.tet_slot_alive(t)) continue;
+      const auto& v = mesh.tet_vertex_indices(t);
+      std::uint32_t& i = index[label[v[0]]];
+      if (i == kInvalidIndex) {
+        i = static_cast<std::uint32_t>(out.pieces.size());
+        out.pieces.emplace_back();
+      }
+      FrameSnapshot::Piece& p = out.pieces[i];
+      const auto& xs = mesh.positions();
+      const double volume = signed_volume(xs[v[0]], xs[v[1]], xs[v[2]], xs[v[3]]);
+      p.centroid += volume * (xs[v[0]] + xs[v[1]] + xs[v[2]] + xs[v[3]]) / 4.0;
+      p.volume += volume;
+      ++p.tetrahedra;
+    }
+    for (FrameSnapshot::Piece& p : out.pieces) p.centroid /= p.volume;
+  }
+  const auto piece_of = [&](std::uint32_t node) { return index[label[node]]; };
   const std::vector<double>* field = field_id_ >= 0 ? &mesh.field_values(field_id_) : nullptr;
   out.field = field_;
   // Two passes over the boundary faces, wound first, so a renderer can draw the kinds apart.
@@ -86,6 +113,7 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
           const float value = field ? static_cast<float>((*field)[i]) : 0.0f;
           s.push_back({to_float(x[i]), to_float(n), region, value});
         }
+        if (pieces_) out.triangle_piece.push_back(piece_of(v[0]));
       }
     }
     if (pass == 0) out.wound_vertices = s.size();
@@ -110,6 +138,7 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
         if (!first) continue;
         out.edges.push_back(to_float(x[a]));
         out.edges.push_back(to_float(x[b]));
+        if (pieces_) out.edge_piece.push_back(piece_of(a));
       }
     }
   }

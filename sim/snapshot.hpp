@@ -64,6 +64,17 @@ struct FrameSnapshot {
   };
   std::optional<Field> field;
 
+  // With rigid tissue, whose pieces can be moved: the piece of every surface triangle and of every
+  // edge (an index into `pieces`), and each piece's volume and centroid now, where a move turns it
+  // (Simulation::move_piece). Empty otherwise.
+  struct Piece {
+    Vec3 centroid = Vec3::Zero();  // [m]
+    double volume = 0.0;           // [m^3] now
+    std::size_t tetrahedra = 0;
+  };
+  std::vector<std::uint32_t> triangle_piece, edge_piece;
+  std::vector<Piece> pieces;
+
   // Bounding box of the uncut mesh's rest positions, for framing views [m].
   Vec3 bounds_min = Vec3::Zero(), bounds_max = Vec3::Zero();
 
@@ -81,6 +92,9 @@ class SnapshotBuilder {
     field_id_ = id;
     field_ = std::move(field);
   }
+
+  // Fill in the pieces (FrameSnapshot::pieces) too.
+  void show_pieces(bool on) { pieces_ = on; }
 
   // The surface (and with `with_edges` the edges) of `mesh` now, into `out`.
   void fill_surface(const TetMesh& mesh, bool with_edges, FrameSnapshot& out) const;
@@ -103,6 +117,7 @@ class SnapshotBuilder {
   std::vector<Original> boundary_;
   Vec3 bounds_min_ = Vec3::Zero(), bounds_max_ = Vec3::Zero();
   int field_id_ = -1;
+  bool pieces_ = false;
   std::optional<FrameSnapshot::Field> field_;
 };
 

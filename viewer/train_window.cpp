@@ -15,12 +15,14 @@
 #include <cstdio>
 #include <ctime>
 #include <exception>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "sim/quantile.hpp"
 #include "viewer/camera.hpp"
 #include "viewer/pictures.hpp"
+#include "viewer/picking.hpp"
 #include "viewer/renderer.hpp"
 
 namespace scalpel {
@@ -140,6 +142,17 @@ class KeyEdges {
   std::array<bool, GLFW_KEY_LAST + 1> state_{};
 };
 
+// A piece of rigid tissue the trainee drags (Ctrl + left button): where the drag has taken it so
+// far, shown in the window until the simulation has moved it there.
+struct PieceDrag {
+  std::uint32_t piece = 0;  // in the snapshot's pieces
+  Vec3 inside = Vec3::Zero();  // a point in the piece where it was grabbed (Simulation::move_piece)
+  Vec3 grab = Vec3::Zero();    // the grabbed surface point, moved with the drag
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // about the piece's centroid
+  Vec3 translation = Vec3::Zero();
+  std::uint64_t request = 0;  // once released: the number of requests sent with it
+};
+
 void text_row(const char* label, const char* format, double value) {
   ImGui::TextUnformatted(label);
   ImGui::SameLine(170);
@@ -173,6 +186,10 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
 
   TrainWindowResult result;
   KeyEdges keys;
+  std::optional<PieceDrag> drag, placed;  // placed: released, until the session has taken it
+  std::uint64_t piece_requests = 0;
+  bool left_before = false;
+  FrameSnapshot preview;  // the frame's snapshot with the dragged piece moved
   bool show_help = true, screenshot = false;
   double last_x = 0, last_y = 0;
   glfwGetCursorPos(window, &last_x, &last_y);
@@ -234,8 +251,78 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     if (input.zoom != 0.0) camera.zoom(std::pow(0.9, input.zoom));
     input.zoom = 0.0;
 
+    // Pieces of rigid tissue (paper section 7.1): Ctrl + left drag moves the piece under the
+    // cursor in the view's plane, with Shift it turns about its centroid (sideways about the
+    // vertical, up and down about the view's horizontal); released, the move goes to the
+    // simulation, which applies it at the end of its next frame and records it.
+    const SessionFrame& f = session.frame();
+    const SessionStatus& st = f.status;
+    const bool pieces = !f.snapshot.pieces.empty();
+    const bool ctrl = key_down(window, GLFW_KEY_LEFT_CONTROL) || key_down(window, GLFW_KEY_RIGHT_CONTROL);
+    const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+    const bool left_pressed = left && !left_before;
+    left_before = left;
+    const auto cursor_ray = [&](double x, double y) {
+      return camera_ray(camera, (x + 0.5) * fw / std::max(ww, 1), (y + 0.5) * fh / std::max(wh, 1), fw, fh);
+    };
+    const Vec3 view_axis = (camera.target - camera.eye()).normalized();
+    const auto request = [&](const PieceMove& m) {
+      if (session.request_piece(m)) ++piece_requests;
+    };
+    if (placed && st.pieces_taken >= placed->request) placed.reset();
+    // A frame that changed the pieces (a cut, a deletion) calls off a drag of one that is gone.
+    if (drag && drag->piece >= f.snapshot.pieces.size()) drag.reset();
+    if (placed && placed->piece >= f.snapshot.pieces.size()) placed.reset();
+    if (pieces && !drag && ctrl && left_pressed && !io.WantCaptureMouse)
+      if (const std::optional<PieceHit> hit = pick_piece(f.snapshot, cursor_ray(cx, cy)))
+        drag = PieceDrag{hit->piece, hit->inside, hit->surface, Eigen::Matrix3d::Identity(), Vec3::Zero(), 0};
+    if (drag && !left) {
+      if (!drag->rotation.isIdentity(0.0) || drag->translation != Vec3::Zero()) {
+        PieceMove m;
+        m.action = PieceAction::Move;
+        m.point = drag->inside;
+        m.translation = drag->translation;
+        m.rotation = Eigen::Quaterniond(drag->rotation).normalized();
+        request(m);
+        drag->request = piece_requests;
+        placed = drag;
+      }
+      drag.reset();
+    } else if (drag && shift) {
+      const Vec3 across = view_axis.cross(Vec3::UnitZ());
+      const Eigen::Matrix3d turn =
+          (Eigen::AngleAxisd(dx * 0.01, Vec3::UnitZ()) *
+           Eigen::AngleAxisd(dy * 0.01, across.norm() > 1e-6 ? Vec3(across.normalized()) : Vec3::UnitX()))
+              .toRotationMatrix();
+      drag->rotation = turn * drag->rotation;
+    } else if (drag) {
+      const std::optional<Vec3> from = ray_plane(cursor_ray(cx - dx, cy - dy), drag->grab, view_axis);
+      const std::optional<Vec3> to = ray_plane(cursor_ray(cx, cy), drag->grab, view_axis);
+      if (from && to) {
+        drag->translation += *to - *from;
+        drag->grab += *to - *from;
+      }
+    }
+
     if (!io.WantCaptureKeyboard) {
-      if (keys.pressed(window, GLFW_KEY_ESCAPE)) glfwSetWindowShouldClose(window, GLFW_TRUE);
+      if (keys.pressed(window, GLFW_KEY_ESCAPE)) {
+        if (drag)
+          drag.reset();  // the drag is called off; the piece stays where it was
+        else
+          glfwSetWindowShouldClose(window, GLFW_TRUE);
+      }
+      if (pieces && !drag && keys.pressed(window, GLFW_KEY_DELETE))
+        if (const std::optional<PieceHit> hit = pick_piece(f.snapshot, cursor_ray(cx, cy))) {
+          PieceMove m;
+          m.action = PieceAction::Delete;
+          m.point = hit->inside;
+          request(m);
+        }
+      if (pieces && !drag && keys.pressed(window, GLFW_KEY_U)) {
+        PieceMove m;
+        m.action = PieceAction::Undo;
+        request(m);
+      }
       if (keys.pressed(window, GLFW_KEY_SPACE)) session.set_paused(!session.paused());
       if (keys.pressed(window, GLFW_KEY_R)) reset();
       if (keys.pressed(window, GLFW_KEY_T))
@@ -261,7 +348,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       in.cursor_x = -cx * s + cy * c;
       in.cursor_y = -(cx * c + cy * s);
       in.scroll = input.scroll;
-      in.buttons = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS ? 1u : 0u;
+      in.buttons = left && !ctrl ? 1u : 0u;
       if (!io.WantCaptureKeyboard) {
         if (key_down(window, GLFW_KEY_UP)) in.keys |= PointerDevice::Raise;
         if (key_down(window, GLFW_KEY_DOWN)) in.keys |= PointerDevice::Lower;
@@ -272,14 +359,18 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       }
       // The blade holds still while the camera moves, over the panel, and without the pointer.
       const bool inside = cx >= 0 && cy >= 0 && cx < ww && cy < wh;
-      in.focused = glfwGetWindowAttrib(window, GLFW_FOCUSED) && inside && !dragging && !io.WantCaptureMouse &&
-                   !session.paused();
+      in.focused = glfwGetWindowAttrib(window, GLFW_FOCUSED) && inside && !dragging && !drag &&
+                   !io.WantCaptureMouse && !session.paused();
       pointer->publish(in);
     }
 
-    const SessionFrame& f = session.frame();
-    const SessionStatus& st = f.status;
-    renderer.draw(f.snapshot, camera, render_options, fw, fh);
+    const FrameSnapshot* shown = &f.snapshot;
+    if (const std::optional<PieceDrag>& d = drag ? drag : placed; d) {
+      preview = f.snapshot;
+      move_piece_preview(preview, d->piece, d->rotation, d->translation);
+      shown = &preview;
+    }
+    renderer.draw(*shown, camera, render_options, fw, fh);
 
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
@@ -339,6 +430,20 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     if (ImGui::Button("Reset (R)")) reset();
     ImGui::SameLine();
     if (ImGui::Button("Screenshot (P)")) screenshot = true;
+    if (pieces) {
+      ImGui::Separator();
+      ImGui::TextDisabled("Pieces");
+      ImGui::Text("%zu piece%s", f.snapshot.pieces.size(), f.snapshot.pieces.size() == 1 ? "" : "s");
+      if (drag)
+        ImGui::Text("Moving %zu tetrahedra", f.snapshot.pieces[drag->piece].tetrahedra);
+      if (!st.piece_refusal.empty())
+        ImGui::TextColored(ImVec4(1, 0.6f, 0.3f, 1), "Not done: %s", st.piece_refusal.c_str());
+      if (ImGui::Button("Undo move (U)")) {
+        PieceMove m;
+        m.action = PieceAction::Undo;
+        request(m);
+      }
+    }
     ImGui::Checkbox("See-through skin (T)", &render_options.transparent_skin);
     ImGui::Checkbox("Tetrahedra (F)", &render_options.wireframe);
     if (playback) {
@@ -358,6 +463,10 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
           "Right drag: orbit. Middle or Shift+right drag: pan. %s: zoom. C: home view. Esc: close.",
           pointer ? "Ctrl+wheel, + and -" : "Wheel, + and -");
       if (playback) ImGui::TextWrapped("[ and ]: half and double speed. R: restart.");
+      if (pieces)
+        ImGui::TextWrapped(
+            "Ctrl+left drag: move the piece under the cursor. Ctrl+Shift+left drag: turn it. Delete: "
+            "delete the piece under the cursor. U: undo the last move. Esc during a drag: call it off.");
     }
     ImGui::End();
     ImGui::Render();

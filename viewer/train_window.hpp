@@ -8,6 +8,9 @@
 //   right drag: orbit the camera; middle drag or Shift + right drag: pan; Ctrl + wheel, + and -: zoom
 //   Space: pause; R: reset to the scenario's start; T: see-through skin; F: tetrahedra's edges;
 //   P: screenshot; [ and ]: slower and faster playback; H: help; Esc: close.
+//   rigid tissue: Ctrl + left drag moves the piece under the cursor, Ctrl + Shift + left drag turns
+//                 it, Delete deletes it, U undoes the last move (sent to the session, which records
+//                 them for replay)
 #pragma once
 
 #include <atomic>
