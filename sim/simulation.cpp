@@ -516,6 +516,8 @@ std::string Simulation::delete_piece(const Vec3& point) {
   for (const std::uint32_t n : nodes)
     for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(n))) tets.push_back(t);
   deleted_volume_ += cutter_->remove_piece(tets);
+  // Its moves leave the undo stack with it: an undo takes back the last move of a piece still there.
+  std::erase_if(standing_moves_, [&](const StandingMove& m) { return !mesh_.alive(m.anchor); });
   hand_over_cut();
   cutter_->refit();
   update_bounds();

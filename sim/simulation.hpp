@@ -116,7 +116,7 @@ class Simulation {
   // shared nodes, sorted; empty when no tetrahedron holds it.
   [[nodiscard]] std::vector<std::uint32_t> piece_at(const Vec3& point) const;
   // Sculpting (paper section 7.3): deletes the piece holding `point` from the mesh
-  // (CutEngine::remove_piece). Not undoable; an earlier move of it can no longer be undone.
+  // (CutEngine::remove_piece). Not undoable; its moves leave the undo stack.
   // Refused as a move is, and for the last piece of tissue left.
   std::string delete_piece(const Vec3& point);
   // A move, undo or deletion asked for during the session (the trainee's window, or a recording's

@@ -326,3 +326,76 @@ TEST_CASE("a tool moved during a pause resumes where it stood: no jump for the c
   MESSAGE("largest step between samples " << largest * 1e3 << " mm over " << log.size() << " samples");
   CHECK(beyond_hand < 1e-6);  // [m] the log's rounding; the pause alone is 5 mm
 }
+
+TEST_CASE("the trainee's moves of pieces go through the session, into its recording, and replay bit for bit" *
+          doctest::test_suite("slow")) {
+  // The bracket's V-notch, without the scenario's own moves: the trainee moves the freed wedge,
+  // takes the move back, and deletes it.
+  Scenario scenario = load_scenario(fs::path(SCALPEL_SOURCE_DIR) / "config/scenarios/bracket_sculpt.yaml");
+  scenario.moves.clear();
+  const fs::path dir = fresh_dir("scalpelsim_test_session_pieces");
+  PlaybackDevice device(read_pose_log(scenario.log->string()));
+  device.set_speed(4.0);
+  SessionOptions options;
+  options.record = dir / "session.csv";
+  options.device_name = "playback";
+  Session session(scenario, device, &device, options);
+  session.update();
+  REQUIRE(session.frame().snapshot.pieces.size() == 1);
+  session.start();
+  // The knife is out of the part from about 12.3 s of the log.
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.time > 12.45; }));
+  REQUIRE(session.frame().snapshot.pieces.size() == 2);
+  PieceMove move;
+  move.point = Vec3(0.048, 0.012, 0.005);
+  move.translation = Vec3(0.010, 0.0, 0.006);
+  move.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(-0.4, Vec3::UnitY()));
+  REQUIRE(session.request_piece(move));
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.pieces_taken == 1; }));
+  PieceMove undo;
+  undo.action = PieceAction::Undo;
+  REQUIRE(session.request_piece(undo));
+  PieceMove remove;
+  remove.action = PieceAction::Delete;
+  remove.point = move.point;  // back where it was
+  REQUIRE(session.request_piece(remove));
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.status.pieces_taken == 3; }));
+  // One more frame for the recording's trailer, then stop.
+  REQUIRE(watch(session, [](const SessionFrame& f) { return f.snapshot.pieces.size() == 1; }));
+  session.stop();
+  INFO(session.error());
+  REQUIRE_FALSE(session.failed());
+  const Simulation& live = session.simulation();
+  REQUIRE(live.moves().size() == 3);
+  for (const Simulation::MoveRecord& m : live.moves()) CHECK(m.refused == "");
+  CHECK(live.moves()[2].action == PieceAction::Delete);
+  CHECK(live.deleted_volume() == doctest::Approx(360e-9).epsilon(1e-7));
+
+  // In the recording: three piece events among the samples.
+  PoseLogReader reader(session.recordings()[0].string());
+  for (ToolSample s; reader.next(s);) {
+  }
+  std::size_t events = 0;
+  for (const auto& [key, value] : reader.metadata()) events += key == "piece" ? 1 : 0;
+  CHECK(events == 3);
+
+  std::vector<Vec3> positions;
+  std::size_t tets = 0;
+  ReplayOptions ro;
+  ro.out_dir = dir / "replay";
+  ro.on_frame = [&](const Simulation& sim, std::size_t, bool last) {
+    if (!last) return;
+    positions = sim.mesh().positions();
+    tets = sim.mesh().tet_count();
+  };
+  const ReplayResult r = replay(scenario, session.recordings()[0], ro);
+  CHECK(r.invariants_ok);
+  CHECK(tets == live.mesh().tet_count());
+  REQUIRE(positions.size() == live.mesh().positions().size());
+  std::size_t differing = 0;
+  for (const NodeId n : live.mesh().nodes()) differing += positions[n.index] != live.mesh().position(n) ? 1 : 0;
+  CHECK(differing == 0);
+  REQUIRE(r.report["piece_moves"].size() == 3);
+  CHECK(r.report["piece_moves"][2]["kind"] == "delete");
+  CHECK(r.report["piece_moves"][0]["time"].get<double>() == live.moves()[0].time);
+}
