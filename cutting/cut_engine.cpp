@@ -691,7 +691,8 @@ std::optional<TetLocation> CutEngine::locate(const Vec3& p, double margin) const
   out.original = mesh_.parent(at);
   // Where a removed piece took corners of that tetrahedron with it, on the live element's own.
   const std::array<std::uint32_t, 4>& first = original_[out.original];
-  const bool whole = std::none_of(first.begin(), first.end(), [&](std::uint32_t n) { return original_removed_[n]; });
+  const bool whole =
+      std::none_of(first.begin(), first.end(), [&](std::uint32_t n) { return original_removed_[n]; });
   const auto& v = whole ? first : mesh_.tet_vertex_indices(at.index);
   std::array<double, 4> w =
       volume_weights(p, corners(mesh_, v)).value_or(std::array<double, 4>{0.25, 0.25, 0.25, 0.25});

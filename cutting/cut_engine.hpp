@@ -214,7 +214,8 @@ class CutEngine {
   // (before any cut) that holds p, which carry the mass and stiffness of their neighbourhood,
   // unlike cut nodes; where cutting has deformed it so that it no longer encloses p, negative
   // weights are clamped. Where a removed piece (remove_piece()) took some of those corners, the
-  // weights are on the corners of the live element holding p. Costs a tree descent (positions as of the last refit()).
+  // weights are on the corners of the live element holding p. Costs a tree descent (positions as of the last
+  // refit()).
   [[nodiscard]] std::optional<TetLocation> locate(const Vec3& p, double margin = 0.0) const;
   // Cut-surface area [m^2] in the current configuration: sum of crack faces on one side.
   [[nodiscard]] double cut_surface_area() const;

@@ -77,7 +77,9 @@ std::string format_piece_event(const PieceEvent& e) {
       for (const double q : {m.rotation.w(), m.rotation.x(), m.rotation.y(), m.rotation.z()}) put(out, q);
       break;
     }
-    case PieceAction::Undo: out += " undo"; break;
+    case PieceAction::Undo:
+      out += " undo";
+      break;
     case PieceAction::Delete:
       out += " delete";
       put(out, "point", m.point);

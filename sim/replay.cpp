@@ -224,7 +224,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   std::uint64_t frame_count = 0;
   bool verbatim = false;
   std::vector<PieceEvent> piece_events;  // the trainee's moves of pieces, in frame order
-  json warnings = json::array();  // on the session's input and physics (docs/formats.md)
+  json warnings = json::array();         // on the session's input and physics (docs/formats.md)
   const auto warn = [&warnings](const std::string& code, const std::string& message) {
     warnings.push_back({{"code", code}, {"message", message}});
   };

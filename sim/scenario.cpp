@@ -405,8 +405,9 @@ void Parser::volume(const Value& v, VolumeSource& out) const {
 
 void Parser::moves(const Value& v, std::vector<PieceMove>& out) const {
   double last = 0.0;
-  for (const Value& item :
-       list(v, "a list of moves ({at, point, translate, rotate}, {at, undo: true} or {at, point, delete: true})")) {
+  for (const Value& item : list(v,
+                                "a list of moves ({at, point, translate, rotate}, {at, undo: true} or {at, "
+                                "point, delete: true})")) {
     const Map m(*this, item);
     PieceMove move;
     move.where = yaml_location(item.mark);

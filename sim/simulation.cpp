@@ -527,9 +527,15 @@ std::string Simulation::delete_piece(const Vec3& point) {
 
 void Simulation::apply_move(const PieceMove& m) {
   switch (m.action) {
-    case PieceAction::Move: (void)move_piece(m.point, m.rotation, m.translation); break;
-    case PieceAction::Undo: (void)undo_move(); break;
-    case PieceAction::Delete: (void)delete_piece(m.point); break;
+    case PieceAction::Move:
+      (void)move_piece(m.point, m.rotation, m.translation);
+      break;
+    case PieceAction::Undo:
+      (void)undo_move();
+      break;
+    case PieceAction::Delete:
+      (void)delete_piece(m.point);
+      break;
   }
 }
 

@@ -24,7 +24,7 @@ struct Ray {
 [[nodiscard]] Ray camera_ray(const Camera& camera, double x, double y, int width, int height);
 
 struct PieceHit {
-  std::uint32_t piece = 0;    // index into FrameSnapshot::pieces
+  std::uint32_t piece = 0;      // index into FrameSnapshot::pieces
   Vec3 surface = Vec3::Zero();  // [m] where the ray meets the piece's surface
   Vec3 inside = Vec3::Zero();   // [m] a point just behind that face, in the piece (Simulation::piece_at)
   double distance = 0.0;        // [m] along the ray

@@ -21,8 +21,8 @@
 
 #include "sim/quantile.hpp"
 #include "viewer/camera.hpp"
-#include "viewer/pictures.hpp"
 #include "viewer/picking.hpp"
+#include "viewer/pictures.hpp"
 #include "viewer/renderer.hpp"
 
 namespace scalpel {
@@ -145,7 +145,7 @@ class KeyEdges {
 // A piece of rigid tissue the trainee drags (Ctrl + left button): where the drag has taken it so
 // far, shown in the window until the simulation has moved it there.
 struct PieceDrag {
-  std::uint32_t piece = 0;  // in the snapshot's pieces
+  std::uint32_t piece = 0;     // in the snapshot's pieces
   Vec3 inside = Vec3::Zero();  // a point in the piece where it was grabbed (Simulation::move_piece)
   Vec3 grab = Vec3::Zero();    // the grabbed surface point, moved with the drag
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // about the piece's centroid
@@ -434,8 +434,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       ImGui::Separator();
       ImGui::TextDisabled("Pieces");
       ImGui::Text("%zu piece%s", f.snapshot.pieces.size(), f.snapshot.pieces.size() == 1 ? "" : "s");
-      if (drag)
-        ImGui::Text("Moving %zu tetrahedra", f.snapshot.pieces[drag->piece].tetrahedra);
+      if (drag) ImGui::Text("Moving %zu tetrahedra", f.snapshot.pieces[drag->piece].tetrahedra);
       if (!st.piece_refusal.empty())
         ImGui::TextColored(ImVec4(1, 0.6f, 0.3f, 1), "Not done: %s", st.piece_refusal.c_str());
       if (ImGui::Button("Undo move (U)")) {

@@ -393,7 +393,8 @@ TEST_CASE("the trainee's moves of pieces go through the session, into its record
   CHECK(tets == live.mesh().tet_count());
   REQUIRE(positions.size() == live.mesh().positions().size());
   std::size_t differing = 0;
-  for (const NodeId n : live.mesh().nodes()) differing += positions[n.index] != live.mesh().position(n) ? 1 : 0;
+  for (const NodeId n : live.mesh().nodes())
+    differing += positions[n.index] != live.mesh().position(n) ? 1 : 0;
   CHECK(differing == 0);
   REQUIRE(r.report["piece_moves"].size() == 3);
   CHECK(r.report["piece_moves"][2]["kind"] == "delete");

@@ -353,7 +353,8 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "a severed piece is deleted: gone from the mesh, its volume off the total, the rest closed and valid, and "
+    "a severed piece is deleted: gone from the mesh, its volume off the total, the rest closed and valid, "
+    "and "
     "cut again across where the pieces parted" *
     doctest::test_suite("slow")) {
   const Halves h = halves();
@@ -449,7 +450,8 @@ TEST_CASE("a scenario's moves run at their times and are reported, and bad moves
       {"moves:\n  - {at: 1, translate: [0, 0, 1]}\n", "moves[0].point", "point"},
       {"moves:\n  - {at: 1, delete: true}\n", "moves[0].point", "point"},
       {"moves:\n  - {at: 1, point: [0, 0, 0], delete: false}\n", "moves[0].delete", "expected true"},
-      {"moves:\n  - {at: 1, point: [0, 0, 0], delete: true, translate: [0, 0, 1]}\n", "moves[0].translate", ""},
+      {"moves:\n  - {at: 1, point: [0, 0, 0], delete: true, translate: [0, 0, 1]}\n", "moves[0].translate",
+       ""},
       {"moves:\n  - {at: 1, point: [0, 0, 0], rotate: {axis: [0, 0, 0], angle_deg: 5}}\n",
        "moves[0].rotate.axis", "non-zero"},
   };
