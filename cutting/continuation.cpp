@@ -242,8 +242,8 @@ void CutEngine::promote_part(const std::vector<std::uint32_t>& part, const std::
 // live elements of both pieces, so the units cannot simply be dropped: the cut components reaching
 // into the piece are promoted whole (the blade is out of the tissue, so none is still being cut),
 // after which every element of the piece stands for a unit of its own and goes with it. The
-// continuation may go one level past max_recursion_depth here: the bound limits the work a stroke
-// can start, and this is not a stroke.
+// promotion here ignores max_recursion_depth (each deletion may take the units it promotes one
+// level further): the bound limits the work a stroke can start, and this is not a stroke.
 double CutEngine::remove_piece(std::span<const std::uint32_t> live_tets) {
   if (in_contact_) throw std::logic_error("CutEngine::remove_piece: the blade is in the tissue");
   std::vector<std::uint32_t> tets(live_tets.begin(), live_tets.end());
@@ -280,6 +280,7 @@ double CutEngine::remove_piece(std::span<const std::uint32_t> live_tets) {
     mesh_.remove_tet(live);
     changes_.removed_tets.push_back(t);
   }
+  seals_.lift_released();  // a seal a unit of the piece held goes with it
   for (const std::uint32_t n : nodes) {
     mesh_.remove_node(mesh_.node_handle(n));
     units_.remove_node(n);

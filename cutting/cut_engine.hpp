@@ -180,8 +180,8 @@ class CutEngine {
   // blade must be out of the tissue (std::logic_error otherwise). The cut components reaching into
   // it are promoted (§6) first, so that each of its elements is a unit of its own; then its units,
   // elements and nodes are removed. Whatever the piece shared a cut unit with stays cut where it
-  // was, one level deeper. changes() holds the removed elements. Returns the piece's rest volume
-  // [m^3], by which rest_volume() drops.
+  // was, one level deeper (past CutOptions::max_recursion_depth if need be). changes() holds the
+  // removed elements. Returns the piece's rest volume [m^3], by which rest_volume() drops.
   double remove_piece(std::span<const std::uint32_t> live_tets);
   // [m^3] The rest volume every cut step keeps (invariant 4): the mesh's at construction, less the
   // pieces removed.

@@ -292,8 +292,14 @@ void CutNodes::update_crossings(const FlatSet<Key>& now) {
 }
 
 void CutNodes::on_piece_removed(const std::vector<std::uint32_t>& removed) {
-  for (CutNode& n : nodes_) {
+  for (std::uint32_t id = 0; id < nodes_.size(); ++id) {
+    CutNode& n = nodes_[id];
+    const std::size_t copies = n.copies.size();
     std::erase_if(n.copies, [&](NodeId c) { return !mesh_.alive(c); });
+    // A cut node still in use indexes its copies by group: none of its copies may go.
+    const auto it = map_of(n.kind).find(n.key);
+    if (n.copies.size() != copies && it != map_of(n.kind).end() && it->second == id)
+      throw std::logic_error("CutNodes::on_piece_removed: a removed piece held a copy of a cut node in use");
     for (const std::uint32_t k : n.key)
       if (std::binary_search(removed.begin(), removed.end(), k)) n.parent_removed = true;
   }

@@ -274,6 +274,8 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
                            "'" + *trailer + "' is not the number of frames of the session");
         frame_count = n;
       }
+      // A killed session's last moves of pieces may come after its last sample.
+      if (!piece_events.empty()) frame_count = std::max(frame_count, piece_events.back().frame);
     }
   }
   Simulation sim(scenario);
@@ -316,6 +318,9 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   if (scenario.simulation.duration)
     frames =
         std::min(frames, static_cast<std::size_t>(std::ceil(*scenario.simulation.duration * visual_rate)));
+  if (!piece_events.empty() && piece_events.back().frame > frames)
+    warn("piece_events_after_end", "the log's moves of pieces after frame " + std::to_string(frames) +
+                                       " (simulation.duration) are not applied");
   std::size_t cycles = 0;
   std::vector<double> frame_seconds;
   ToolSample sample;

@@ -109,7 +109,8 @@ void Session::record_piece(const PieceMove& move, std::uint64_t frame) {
 
 void Session::open_recording() {
   if (!writer_) {
-    // Opened at the attempt's first sample: an attempt without one leaves no file.
+    // Opened at the attempt's first sample (or move of a piece): an attempt without either leaves no
+    // file.
     const std::filesystem::path path = attempt_path(options_.record, recordings_.size() + 1);
     char rate[32];
     std::snprintf(rate, sizeof rate, "%g Hz", scenario_.device.rate);

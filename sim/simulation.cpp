@@ -473,6 +473,9 @@ std::string Simulation::move_piece(const Vec3& point, const Eigen::Quaterniond& 
   MoveRecord record;
   record.time = frame_time_;
   if (!scenario_.tissue.rigid) return refuse_move(record, "the tissue is not rigid");
+  if (!point.allFinite() || !translation.allFinite() || !rotation.coeffs().allFinite() ||
+      !(rotation.norm() > 0.0))
+    return refuse_move(record, "not a finite move");
   if (cutter_->in_contact()) return refuse_move(record, "the blade is in the tissue");
   const std::vector<std::uint32_t> nodes = piece_at(point);
   if (nodes.empty()) return refuse_move(record, "no tissue at that point");
@@ -510,12 +513,15 @@ std::string Simulation::delete_piece(const Vec3& point) {
   if (cutter_->in_contact()) return refuse_move(record, "the blade is in the tissue");
   const std::vector<std::uint32_t> nodes = piece_at(point);
   if (nodes.empty()) return refuse_move(record, "no tissue at that point");
-  if (nodes.size() == mesh_.node_count()) return refuse_move(record, "it is all the tissue left");
-  tally_piece(nodes, record, nullptr);
+  MoveRecord done = record;
+  tally_piece(nodes, done, nullptr);
+  if (done.tets == mesh_.tet_count()) return refuse_move(record, "it is all the tissue left");
+  record = done;
   std::vector<std::uint32_t> tets;
   for (const std::uint32_t n : nodes)
     for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(n))) tets.push_back(t);
   deleted_volume_ += cutter_->remove_piece(tets);
+  surface_->drop_faces_of(nodes);
   // Its moves leave the undo stack with it: an undo takes back the last move of a piece still there.
   std::erase_if(standing_moves_, [&](const StandingMove& m) { return !mesh_.alive(m.anchor); });
   hand_over_cut();

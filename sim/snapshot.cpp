@@ -70,7 +70,7 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
   out.triangle_piece.clear();
   out.edge_piece.clear();
   out.pieces.clear();
-  // Pieces: node_pieces() labels, numbered in slot order of their first node.
+  // Pieces: node_pieces() labels, numbered in the slot order of their first tetrahedron.
   std::vector<std::uint32_t> label, index;
   if (pieces_) {
     label = node_pieces(mesh);

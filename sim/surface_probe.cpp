@@ -1,5 +1,7 @@
 #include "sim/surface_probe.hpp"
 
+#include <algorithm>
+
 #include <cmath>
 #include <limits>
 
@@ -10,6 +12,14 @@ namespace scalpel {
 
 SurfaceProbe::SurfaceProbe(const TetMesh& uncut) {
   for (const BoundaryFace& f : boundary_faces(uncut)) faces_.push_back(f.nodes);
+}
+
+void SurfaceProbe::drop_faces_of(std::span<const std::uint32_t> removed) {
+  std::erase_if(faces_, [&](const std::array<std::uint32_t, 3>& f) {
+    return std::any_of(f.begin(), f.end(), [&](std::uint32_t n) {
+      return std::binary_search(removed.begin(), removed.end(), n);
+    });
+  });
 }
 
 namespace {

@@ -7,12 +7,14 @@
 // The surface is the outer boundary of the uncut mesh. Cuts never split the original corner nodes
 // (cutting/cut_engine.hpp), so its triangles stay defined by the corners' current positions as the
 // tissue deforms; a triangle an incision has split spans its lips, which near the blade (where the
-// crack has not yet opened) is still the skin.
+// crack has not yet opened) is still the skin. A deleted piece takes its corners with it, and the
+// triangles on them go too (drop_faces_of), also one a cut split between that piece and the rest.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "mesh/mesh.hpp"
@@ -65,6 +67,9 @@ class SurfaceProbe {
   // Depth 0 when no triangle faces `up`. Given rest positions, `up` is still the blade's axis now:
   // the tissue's rotation under the blade is not undone.
   [[nodiscard]] SurfaceHit nearest(const std::vector<Vec3>& x, const Vec3& p, const Vec3& up) const;
+  // Forgets the triangles with a corner among `removed` (sorted node slots of a deleted piece).
+  void drop_faces_of(std::span<const std::uint32_t> removed);
+
   static constexpr double kFacingDeg = 60;
   static constexpr double kFacingCos = 0.5;  // cos(kFacingDeg)
 

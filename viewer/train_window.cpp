@@ -257,7 +257,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     // simulation, which applies it at the end of its next frame and records it.
     const SessionFrame& f = session.frame();
     const SessionStatus& st = f.status;
-    const bool pieces = !f.snapshot.pieces.empty();
+    const bool pieces = !f.snapshot.pieces.empty() && fw > 0 && fh > 0 && ww > 0 && wh > 0;
     const bool ctrl = key_down(window, GLFW_KEY_LEFT_CONTROL) || key_down(window, GLFW_KEY_RIGHT_CONTROL);
     const bool left = glfwGetMouseButton(window, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
     const bool left_pressed = left && !left_before;

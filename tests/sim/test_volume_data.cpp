@@ -388,6 +388,9 @@ TEST_CASE(
   for (const auto& f : sim.cutter().cut_surface_faces())
     for (const NodeId n : f) CHECK(sim.mesh().alive(n));
 
+  CHECK(sim.move_piece(Vec3(0.0, std::nan(""), 0.0), Eigen::Quaterniond::Identity(), Vec3::Zero()) ==
+        "not a finite move");
+
   // Cut again: a blade along y at x = 3.1 mm, 4 mm deep, out through the face where the halves
   // parted. Valid after every frame, against the volume left.
   std::vector<ToolSample> stroke;
@@ -502,6 +505,27 @@ TEST_CASE(
   const double initial = result.report["mesh"]["initial"]["rest_volume"].get<double>() * 1e9;
   const double final_volume = result.report["mesh"]["final"]["rest_volume"].get<double>() * 1e9;
   CHECK(final_volume == doctest::Approx(initial - wedge).epsilon(1e-9));
+
+  // The wedge deleted where it was cut: a blade held in the notch is in no tissue (the part's outer
+  // surface the task measures depth by has lost the wedge's faces).
+  Scenario in_place = scenario;
+  in_place.moves = {in_place.moves[1]};
+  in_place.moves[0].point = Vec3(0.048, 0.012, 0.005);
+  Simulation sim(in_place);
+  std::vector<ToolSample> samples = read_pose_log(in_place.log->string());
+  for (const double z : {0.02, 0.005, 0.02}) {
+    ToolSample s = samples.back();
+    s.t += 0.1;
+    s.position = Vec3(0.047, 0.012, z);
+    s.orientation = Eigen::Quaterniond::Identity();  // the blade upright
+    samples.push_back(s);
+  }
+  const std::size_t n = samples.size();
+  run(sim, std::vector<ToolSample>(samples.begin(), samples.end() - 2));
+  REQUIRE(sim.moves().size() == 1);
+  CHECK(sim.moves()[0].refused == "");
+  sim.on_sample(samples[n - 2]);
+  CHECK_FALSE(sim.scorer().last().in_tissue);
 }
 
 TEST_CASE("an unscored task guides the log generator and keeps no score" * doctest::test_suite("slow")) {
