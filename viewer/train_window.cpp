@@ -189,6 +189,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
   std::optional<PieceDrag> drag, placed;  // placed: released, until the session has taken it
   std::uint64_t piece_requests = 0;
   bool left_before = false;
+  bool dropped_request = false;
   FrameSnapshot preview;  // the frame's snapshot with the dragged piece moved
   bool show_help = true, screenshot = false;
   double last_x = 0, last_y = 0;
@@ -267,7 +268,10 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
     };
     const Vec3 view_axis = (camera.target - camera.eye()).normalized();
     const auto request = [&](const PieceMove& m) {
-      if (session.request_piece(m)) ++piece_requests;
+      if (session.request_piece(m))
+        ++piece_requests;
+      else
+        dropped_request = true;  // the simulation has not taken the last 16 yet
     };
     if (placed && st.pieces_taken >= placed->request) placed.reset();
     // A frame that changed the pieces (a cut, a deletion) calls off a drag of one that is gone.
@@ -437,6 +441,8 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       if (drag) ImGui::Text("Moving %zu tetrahedra", f.snapshot.pieces[drag->piece].tetrahedra);
       if (!st.piece_refusal.empty())
         ImGui::TextColored(ImVec4(1, 0.6f, 0.3f, 1), "Not done: %s", st.piece_refusal.c_str());
+      if (dropped_request)
+        ImGui::TextColored(ImVec4(1, 0.6f, 0.3f, 1), "A move was dropped: too many waiting");
       if (ImGui::Button("Undo move (U)")) {
         PieceMove m;
         m.action = PieceAction::Undo;
