@@ -29,6 +29,16 @@ std::vector<std::uint32_t> node_pieces(const TetMesh& mesh) {
   return root;
 }
 
+void PieceTally::add(const TetMesh& mesh, std::uint32_t t) {
+  const auto& x = mesh.positions();
+  const auto& v = mesh.tet_vertex_indices(t);
+  const double vol = signed_volume(x[v[0]], x[v[1]], x[v[2]], x[v[3]]);
+  moment += vol * (x[v[0]] + x[v[1]] + x[v[2]] + x[v[3]]) / 4.0;
+  volume += vol;
+  rest_volume += mesh.rest_volume(mesh.tet_handle(t));
+  ++tets;
+}
+
 Components connected_components(const TetMesh& mesh) {
   Components c;
   c.of_tet.assign(mesh.tet_capacity(), kInvalidIndex);

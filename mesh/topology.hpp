@@ -33,4 +33,15 @@ struct Components {
 // of one piece. Free slots and nodes of no tetrahedron are their own pieces.
 [[nodiscard]] std::vector<std::uint32_t> node_pieces(const TetMesh& mesh);
 
+// The tetrahedra of a piece, added one by one: their volume and centroid of volume where they lie
+// now (where a move turns the piece), their rest volume and their count.
+struct PieceTally {
+  Vec3 moment = Vec3::Zero();  // [m^4] sum of volume times centroid
+  double volume = 0.0;         // [m^3] now
+  double rest_volume = 0.0;    // [m^3]
+  std::size_t tets = 0;
+  void add(const TetMesh& mesh, std::uint32_t tet_slot);
+  [[nodiscard]] Vec3 centroid() const { return moment / volume; }
+};
+
 }  // namespace scalpel

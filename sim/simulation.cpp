@@ -415,19 +415,12 @@ void Simulation::tally_piece(const std::vector<std::uint32_t>& nodes, MoveRecord
                              Vec3* centroid) const {
   std::vector<std::uint8_t> in_piece(mesh_.node_capacity(), 0);
   for (const std::uint32_t n : nodes) in_piece[n] = 1;
-  const auto& x = mesh_.positions();
-  Vec3 moment = Vec3::Zero();
-  double volume = 0.0;
-  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t) {
-    if (!mesh_.tet_slot_alive(t) || !in_piece[mesh_.tet_vertex_indices(t)[0]]) continue;
-    const auto& v = mesh_.tet_vertex_indices(t);
-    const double vol = signed_volume(x[v[0]], x[v[1]], x[v[2]], x[v[3]]);
-    moment += vol * (x[v[0]] + x[v[1]] + x[v[2]] + x[v[3]]) / 4.0;
-    volume += vol;
-    record.rest_volume += mesh_.rest_volume(mesh_.tet_handle(t));
-    ++record.tets;
-  }
-  if (centroid) *centroid = moment / volume;
+  PieceTally tally;
+  for (std::uint32_t t = 0; t < mesh_.tet_capacity(); ++t)
+    if (mesh_.tet_slot_alive(t) && in_piece[mesh_.tet_vertex_indices(t)[0]]) tally.add(mesh_, t);
+  record.rest_volume += tally.rest_volume;
+  record.tets += tally.tets;
+  if (centroid) *centroid = tally.centroid();
 }
 
 std::string Simulation::refuse_move(MoveRecord record, std::string why) {

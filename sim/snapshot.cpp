@@ -71,26 +71,22 @@ void SnapshotBuilder::fill_surface(const TetMesh& mesh, bool with_edges, FrameSn
   out.edge_piece.clear();
   out.pieces.clear();
   // Pieces: node_pieces() labels, numbered in the slot order of their first tetrahedron.
+  // Tallied as Simulation::move_piece tallies the piece it turns, so both turn about one point.
   std::vector<std::uint32_t> label, index;
   if (pieces_) {
     label = node_pieces(mesh);
     index.assign(label.size(), kInvalidIndex);
+    std::vector<PieceTally> tallies;
     for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t) {
       if (!mesh.tet_slot_alive(t)) continue;
-      const auto& v = mesh.tet_vertex_indices(t);
-      std::uint32_t& i = index[label[v[0]]];
+      std::uint32_t& i = index[label[mesh.tet_vertex_indices(t)[0]]];
       if (i == kInvalidIndex) {
-        i = static_cast<std::uint32_t>(out.pieces.size());
-        out.pieces.emplace_back();
+        i = static_cast<std::uint32_t>(tallies.size());
+        tallies.emplace_back();
       }
-      FrameSnapshot::Piece& p = out.pieces[i];
-      const auto& xs = mesh.positions();
-      const double volume = signed_volume(xs[v[0]], xs[v[1]], xs[v[2]], xs[v[3]]);
-      p.centroid += volume * (xs[v[0]] + xs[v[1]] + xs[v[2]] + xs[v[3]]) / 4.0;
-      p.volume += volume;
-      ++p.tetrahedra;
+      tallies[i].add(mesh, t);
     }
-    for (FrameSnapshot::Piece& p : out.pieces) p.centroid /= p.volume;
+    for (const PieceTally& p : tallies) out.pieces.push_back({p.centroid(), p.volume, p.tets});
   }
   const auto piece_of = [&](std::uint32_t node) { return index[label[node]]; };
   const std::vector<double>* field = field_id_ >= 0 ? &mesh.field_values(field_id_) : nullptr;

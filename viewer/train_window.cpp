@@ -273,6 +273,11 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
       else
         dropped_request = true;  // the simulation has not taken the last 16 yet
     };
+    const auto undo = [&] {
+      PieceMove m;
+      m.action = PieceAction::Undo;
+      request(m);
+    };
     if (placed && st.pieces_taken >= placed->request) placed.reset();
     // A frame that changed the pieces (a cut, a deletion) calls off a drag of one that is gone.
     if (drag && drag->piece >= f.snapshot.pieces.size()) drag.reset();
@@ -322,11 +327,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
           m.point = hit->inside;
           request(m);
         }
-      if (pieces && !drag && keys.pressed(window, GLFW_KEY_U)) {
-        PieceMove m;
-        m.action = PieceAction::Undo;
-        request(m);
-      }
+      if (pieces && !drag && keys.pressed(window, GLFW_KEY_U)) undo();
       if (keys.pressed(window, GLFW_KEY_SPACE)) session.set_paused(!session.paused());
       if (keys.pressed(window, GLFW_KEY_R)) reset();
       if (keys.pressed(window, GLFW_KEY_T))
@@ -443,11 +444,7 @@ TrainWindowResult run_train_window(Session& session, PointerDevice* pointer, Pla
         ImGui::TextColored(ImVec4(1, 0.6f, 0.3f, 1), "Not done: %s", st.piece_refusal.c_str());
       if (dropped_request)
         ImGui::TextColored(ImVec4(1, 0.6f, 0.3f, 1), "A move was dropped: too many waiting");
-      if (ImGui::Button("Undo move (U)")) {
-        PieceMove m;
-        m.action = PieceAction::Undo;
-        request(m);
-      }
+      if (ImGui::Button("Undo move (U)")) undo();
     }
     ImGui::Checkbox("See-through skin (T)", &render_options.transparent_skin);
     ImGui::Checkbox("Tetrahedra (F)", &render_options.wireframe);
