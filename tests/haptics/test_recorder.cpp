@@ -112,8 +112,11 @@ TEST_CASE("a recorded session replays to the same samples exactly") {
 namespace {
 
 // Records `source` on the virtual clock through the program's pose log writer, flushing every
-// 5 ms of session time; the process ends with the recording.
-[[noreturn]] void record_in_child(const std::vector<ToolSample>& source, const std::string& path) {
+// 5 ms of session time and yielding after each flush so that the parent, polling the file's size,
+// gets to run. With `linger`, the process then waits to be killed, so a kill always
+// lands, however late the parent gets to it; without, it ends with the recording.
+[[noreturn]] void record_in_child(const std::vector<ToolSample>& source, const std::string& path,
+                                  bool linger) {
   MockDevice device(source);
   ForceChannel forces;
   forces.publish(contact_model());
@@ -122,7 +125,14 @@ namespace {
   o.flush_interval = 0.005;
   const std::atomic<bool> stop{false};
   (void)record_session(
-      device, forces, o, [&](const ToolSample& s) { writer.write(s); }, [&] { writer.flush(); }, stop);
+      device, forces, o, [&](const ToolSample& s) { writer.write(s); },
+      [&] {
+        writer.flush();
+        ::sched_yield();
+      },
+      stop);
+  writer.flush();
+  while (linger) ::pause();
   ::_exit(0);
 }
 
@@ -146,7 +156,7 @@ TEST_CASE("a recorder killed at random moments leaves a log that replays up to w
   {
     const pid_t child = ::fork();
     REQUIRE(child >= 0);
-    if (child == 0) record_in_child(source, full_path);
+    if (child == 0) record_in_child(source, full_path, false);
     int status = 0;
     REQUIRE(::waitpid(child, &status, 0) == child);
     REQUIRE(WIFEXITED(status));
@@ -157,22 +167,21 @@ TEST_CASE("a recorder killed at random moments leaves a log that replays up to w
   const std::size_t full_bytes = full_text.size();
 
   std::mt19937_64 rng(0x5ca1);
-  int killed = 0, torn = 0;
+  int cut_short = 0, torn = 0;
   for (int trial = 0; trial < 40; ++trial) {
     CAPTURE(trial);
     const std::string path = temp_path("killed_" + std::to_string(trial) + ".csv");
     const std::size_t at = std::uniform_int_distribution<std::size_t>(0, full_bytes * 9 / 10)(rng);
     const pid_t child = ::fork();
     REQUIRE(child >= 0);
-    if (child == 0) record_in_child(source, path);
+    if (child == 0) record_in_child(source, path, true);
     int status = 0;
     pid_t done = 0;
     while ((done = ::waitpid(child, &status, WNOHANG)) == 0 && file_size(path) < at) ::sched_yield();
-    if (done == 0) {
-      REQUIRE(::kill(child, SIGKILL) == 0);
-      REQUIRE(::waitpid(child, &status, 0) == child);
-    }
-    killed += WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL ? 1 : 0;
+    REQUIRE(done == 0);  // the child waits to be killed; ending on its own is a crash
+    REQUIRE(::kill(child, SIGKILL) == 0);
+    REQUIRE(::waitpid(child, &status, 0) == child);
+    REQUIRE((WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL));
 
     // Every whole line is a sample of the full recording, in order, bit for bit.
     PoseLogReader reader(path);
@@ -193,9 +202,14 @@ TEST_CASE("a recorder killed at random moments leaves a log that replays up to w
     const auto lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
     CHECK(k == (lines >= 3 ? lines - 3 : 0));
     torn += reader.torn_line() != 0 ? 1 : 0;
+    cut_short += text.size() < full_bytes ? 1 : 0;
     std::filesystem::remove(path);
   }
-  MESSAGE(killed << " of 40 recorders killed, " << torn << " logs ended in a torn line");
-  CHECK(killed >= 30);
+  // How many kills land before the recording ends depends on how soon the parent sees the file
+  // grow; the child's yields make that soon even on a loaded machine. Three quarters keeps the
+  // test about recordings cut short.
+  MESSAGE(cut_short << " of 40 recorders killed before their recording ended, " << torn
+                    << " logs ended in a torn line");
+  CHECK(cut_short >= 30);
   std::filesystem::remove(full_path);
 }
