@@ -8,6 +8,7 @@
 //   contact (a penalty plane, n the outward tissue normal, the tissue where n.x < d):
 //                                                      k_s max(0, d - n.x) n
 //   cutting resistance (against the blade's motion):   -R v / max(|v|, v_eps)
+//   the tool's body on the tissue (held over the frame): F_b
 // The simulation sets k_c to zero while the tool is free. The sum is clamped to the device's force
 // limit and rate-limited; it is zero on a device fault, before any model, and while the
 // simulation stalls.
@@ -49,6 +50,10 @@ struct ForceModel {
   double contact_stiffness = 0.0;                             // k_s [N/m]
 
   double cutting_resistance = 0.0;  // R [N], 0 while not cutting
+
+  // F_b [N]: the tissue's push on the blade's flats and the handle (sim/tool_body.hpp), as the last
+  // full solve gave it.
+  Eigen::Vector3d body_force = Eigen::Vector3d::Zero();
 
   // [N] The contact's force along contact_normal at tool position x: k_s max(0, d - n.x); 0 without
   // contact.

@@ -274,7 +274,7 @@ void Parser::fixed(const Value& v, std::vector<FixedSelector>& out) const {
 
 void Parser::tool(const Value& v, ToolSettings& out) const {
   const Map m(*this, v);
-  m.only({"name", "blade", "cutting_resistance", "contact"});
+  m.only({"name", "blade", "handle", "cutting_resistance", "contact"});
   if (const auto x = m.get("name")) out.name = string(*x);
   if (const auto x = m.get("contact")) {
     const std::string c = string(*x);
@@ -291,7 +291,7 @@ void Parser::tool(const Value& v, ToolSettings& out) const {
   }
   if (const auto x = m.get("blade")) {
     const Map b(*this, *x);
-    b.only({"back", "tip", "edge"});
+    b.only({"back", "tip", "edge", "width"});
     out.blade_back = vector<3>(b.require("back"));
     const Value vtip = b.require("tip");
     out.blade_tip = vector<3>(vtip);
@@ -306,6 +306,26 @@ void Parser::tool(const Value& v, ToolSettings& out) const {
       if (!(edge.norm() > 1e-9)) fail(*e, "the edge direction must not be parallel to the blade");
       out.blade_edge = edge.normalized();
     }
+    if (const auto w = b.get("width")) {
+      out.blade_width = number(*w);
+      check(*w, out.blade_width >= 0.0 && out.blade_width <= 0.05, "0 <= value <= 0.05 [m]");
+      if (out.blade_width > 0.0 && !out.blade_edge)
+        fail(*w, "a blade width needs blade.edge: the spine lies opposite the edge");
+      if (out.blade_width > 0.0 && out.contact != ToolContactKind::Indent)
+        fail(*w, "the blade's flats push the tissue only with contact: indent");
+    }
+  }
+  if (const auto x = m.get("handle")) {
+    const Map h(*this, *x);
+    h.only({"radius", "length"});
+    const Value r = h.require("radius"), l = h.require("length");
+    out.handle_radius = number(r);
+    check(r, out.handle_radius > 0.0 && out.handle_radius <= 0.05, "0 < value <= 0.05 [m]");
+    out.handle_length = number(l);
+    check(l, out.handle_length >= out.handle_radius && out.handle_length <= 0.5,
+          "radius <= value <= 0.5 [m]");
+    if (out.contact != ToolContactKind::Indent)
+      fail(*x, "the handle pushes the tissue only with contact: indent");
   }
 }
 

@@ -91,6 +91,10 @@ struct ToolSettings {
   // Unit direction the sharp edge faces, tool frame, across the blade; none: the blade's motion
   // (every crossing is forward, Eq. 1).
   std::optional<Vec3> blade_edge;
+  // The blade's flats and the handle (sim/tool_body.hpp), pushed against with contact: indent.
+  double blade_width = 0.0;    // [m] from the edge to the spine, across the blade; 0: no flats
+  double handle_radius = 0.0;  // [m] 0: no handle
+  double handle_length = 0.0;  // [m] from the blade's back point, along the blade away from the tip
   // Force per length of blade inside the tissue, against the blade's motion [N/m]: the hand feels
   // it and the tissue is dragged by it (sim/simulation.hpp).
   double cutting_resistance = 350.0;

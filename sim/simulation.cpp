@@ -158,6 +158,7 @@ Simulation::Simulation(const Scenario& scenario) : scenario_(scenario) {
     std::vector<double> puncture;
     for (const Material& material : tissue_->materials()) puncture.push_back(material.puncture_force);
     indentation_ = std::make_unique<Indentation>(std::move(puncture));
+    if (body_size().any() && !scenario_.tissue.rigid) body_ = std::make_unique<BodyContact>(body_size());
   }
 }
 
@@ -557,6 +558,8 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   } else if (!scenario_.tissue.rigid) {
     push_tissue();
   }
+  // The flats and the handle carry the nodes they hold to where the tool is now.
+  if (body_) body_->follow(blade(last_), mesh_, *tissue_);
   const double dt = 1.0 / scenario_.tissue.rate;
   while (!scenario_.tissue.rigid && tissue_time_ + dt <= t + 1e-12) {
     const auto start = std::chrono::steady_clock::now();
@@ -568,6 +571,12 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     tissue_time_ += dt;
   }
   if (pressing) settle_press(t);
+  if (body_) {
+    std::vector<NodeId> copies;
+    for (const auto& c : cutter_->cut_node_copies())
+      copies.insert(copies.end(), c.copies.begin(), c.copies.end());
+    body_->settle(blade(last_), copies, mesh_, *tissue_);
+  }
   // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue); a
   // blade that has not cut in (contact) cuts nothing the tissue brings to it.
   if (!indentation_ || indentation_->phase() == Indentation::Phase::Cutting)
@@ -584,6 +593,7 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   model.t = t;
   model.constrained_position = last_.position;
   model.cutting_resistance = scenario_.tool.cutting_resistance * contact_.length;
+  if (body_) model.body_force = scenario_.device.mapping.rotation.conjugate() * body_->force();
   if (indentation_ && indentation_->phase() == Indentation::Phase::Pressing) {
     set_contact_model(model);
     press_model_ = model;
@@ -591,7 +601,10 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     press_model_.reset();
   }
   forces.publish(model);
-  contact_forces_.push_back(pressing ? indentation_->force().norm() : contact_.force.norm());
+  const Vec3 body_force = body_ ? body_->force() : Vec3::Zero();
+  // On the tissue: the edge's push or the press (the tissue's load on the blade, reversed), and the
+  // body's.
+  contact_forces_.push_back(((pressing ? Vec3(-indentation_->force()) : contact_.force) - body_force).norm());
   if (samples_ > 0) frame_start_ = last_;
 }
 

@@ -32,6 +32,7 @@
 #include "sim/snapshot.hpp"
 #include "sim/surface_probe.hpp"
 #include "sim/task_score.hpp"
+#include "sim/tool_body.hpp"
 #include "sim/wound.hpp"
 
 namespace scalpel {
@@ -168,6 +169,14 @@ class Simulation {
   // Per frame of a press after its first: |the normal force the last frame's local model gives at
   // the tool's position now - the force the solve gives now| [N].
   [[nodiscard]] const std::vector<double>& press_model_errors() const { return press_model_errors_; }
+  // The blade's flats and the handle pushing the tissue (sim/tool_body.hpp); null without contact
+  // or without either.
+  [[nodiscard]] const BodyContact* body_contact() const { return body_.get(); }
+  // The tool's body as it is after the last sample.
+  [[nodiscard]] ToolBody tool_body() const { return {blade(last_), body_size()}; }
+  [[nodiscard]] ToolBodySize body_size() const {
+    return {scenario_.tool.blade_width, scenario_.tool.handle_radius, scenario_.tool.handle_length};
+  }
 
  private:
   // Sets the tissue's external forces from the blade's motion over the frame (see above).
@@ -251,6 +260,7 @@ class Simulation {
   std::vector<double> cut_seconds_;
   std::uint64_t force_sequence_ = 0;
   std::unique_ptr<Indentation> indentation_;
+  std::unique_ptr<BodyContact> body_;
   std::optional<ForceModel> press_model_;  // published at the last frame, while pressing
   std::vector<double> press_model_errors_;
 };

@@ -1,0 +1,223 @@
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "base/input_error.hpp"
+#include "sim/scenario.hpp"
+#include "sim/simulation.hpp"
+#include "sim/tool_body.hpp"
+
+using namespace scalpel;
+
+namespace {
+
+// The blade upright at the origin, its edge facing +x: back 6 mm up, flats in the x-z plane.
+BladePose upright() {
+  return {Vec3(0, 0, 0.006), Vec3::Zero(), Vec3::UnitX()};
+}
+
+// A skin patch 20 x 20 mm, 7 mm thick, held at its base and rim, without gravity; the blade
+// presses before it cuts and gives way at 0.3 N. `tool` is the scenario's tool map without contact.
+Scenario scenario(const std::string& tool) {
+  const std::string text = R"(
+name: body
+mesh:
+  generator: slab
+  size: [0.020, 0.020]
+  cells: [5, 5]
+  layers:
+    - {name: epidermis, thickness: 0.001, cells: 1}
+    - {name: dermis, thickness: 0.002, cells: 1}
+    - {name: fat, thickness: 0.004, cells: 1}
+materials:
+  epidermis: {young: 1.0e6, poisson: 0.45, density: 1100, damping: {mass: 0.5, stiffness: 0.002}, puncture_force: 0.3}
+  dermis: {young: 1.0e5, poisson: 0.45, density: 1100, damping: {mass: 0.5, stiffness: 0.002}}
+  fat: {young: 1.0e4, poisson: 0.45, density: 920, damping: {mass: 0.5, stiffness: 0.002}}
+tissue: {rate: 60, solver: {tolerance: 1.0e-3, max_iterations: 200}, gravity: [0, 0, 0]}
+fixed:
+  - {side: bottom}
+  - {side: x_min}
+  - {side: x_max}
+  - {side: y_min}
+  - {side: y_max}
+tool:
+  contact: indent
+  cutting_resistance: 0
+)" + tool + "\n";
+  return parse_scenario(text, "body.yaml", ".");
+}
+
+// Drives the tool in straight lines at 1 kHz, a frame every 16 samples as the replay does, and
+// calls `check` after every frame.
+template <class Check>
+struct Drive {
+  Simulation sim;
+  ForceChannel forces;
+  ToolSample s;
+  double t = 0;
+  std::size_t samples = 0;
+  Check check;
+  Drive(const Scenario& sc, const Vec3& start, Check c) : sim(sc), check(std::move(c)) {
+    s.position = start;
+    sim.on_sample(s);
+    frame();
+  }
+  void frame() {
+    sim.end_frame(t += 1.0 / 60, forces);
+    check(sim);
+  }
+  void move_to(const Vec3& p, double seconds) {
+    const Vec3 p0 = s.position;
+    const int n = static_cast<int>(seconds * 1000);
+    for (int k = 1; k <= n; ++k) {
+      s.t += 0.001;
+      s.position = p0 + (p - p0) * (static_cast<double>(k) / n);
+      sim.on_sample(s);
+      if (++samples % 16 == 0) frame();
+    }
+  }
+};
+template <class Check>
+Drive(const Scenario&, const Vec3&, Check) -> Drive<Check>;
+
+}  // namespace
+
+TEST_CASE("the tool's body: the blade's frame, the flats' outline and the handle's capsule") {
+  const ToolBody body(upright(), {.blade_width = 0.004, .handle_radius = 0.003, .handle_length = 0.05});
+  REQUIRE(body.has_flats());
+  REQUIRE(body.has_handle());
+  // s runs from the back point to the tip, w from the edge to the spine (-x), d across (x-z plane).
+  const ToolBody::Local l = body.local(Vec3(-0.001, 0.0005, 0.002));
+  CHECK(l.s == doctest::Approx(0.004));
+  CHECK(l.w == doctest::Approx(0.001));
+  CHECK(std::abs(l.d) == doctest::Approx(0.0005));
+  CHECK((body.world(l) - Vec3(-0.001, 0.0005, 0.002)).norm() < 1e-15);
+  CHECK(body.over_flats(l));
+  CHECK_FALSE(body.over_flats(body.local(Vec3(0.0005, 0, 0.002))));    // ahead of the edge
+  CHECK_FALSE(body.over_flats(body.local(Vec3(-0.0045, 0, 0.002))));   // behind the spine
+  CHECK_FALSE(body.over_flats(body.local(Vec3(-0.001, 0, -0.0005))));  // beyond the tip
+  // The handle: a capsule along the blade's axis above the back point, its rounded end there.
+  CHECK_FALSE(body.handle_exit(Vec3(0, 0, 0.0055)));  // on the blade below the back point
+  CHECK_FALSE(body.handle_exit(Vec3(0.0031, 0, 0.02)));
+  const auto side = body.handle_exit(Vec3(0.001, 0, 0.02));
+  REQUIRE(side);
+  CHECK((side->point - Vec3(0.003, 0, 0.02)).norm() < 1e-12);
+  CHECK((side->normal - Vec3::UnitX()).norm() < 1e-12);
+  const auto end = body.handle_exit(Vec3(0, 0.001, 0.0065));  // in the rounded end
+  REQUIRE(end);
+  CHECK((end->point - Vec3(0, 0, 0.009)).norm() == doctest::Approx(0.003));
+  CHECK_FALSE(body.handle_exit(Vec3(0, 0, 0.057)));  // beyond its length
+  // Without the edge's direction the spine is not known: no flats.
+  const ToolBody bare({Vec3(0, 0, 0.006), Vec3::Zero(), Vec3::Zero()}, {.blade_width = 0.004});
+  CHECK_FALSE(bare.has_flats());
+  CHECK_FALSE(bare.has_handle());
+}
+
+TEST_CASE("a blade moved flat first inside its incision pushes the lip: no node passes through its flats") {
+  // The blade cuts in upright and along +x at y = y0, then is moved 1.5 mm towards +y, flat first,
+  // across the grid's line y = 2 mm, and held. Each node of the generated mesh belongs to the side
+  // of y0 it rests on; over the flats it must still be on that side of the blade, or on them.
+  const double y0 = 0.0012;
+  const ToolBodySize size{.blade_width = 0.004};
+  const auto run = [&](const std::string& tool, bool& crossed, double& push) {
+    crossed = false;
+    push = 0;
+    std::size_t generated = 0;  // the mesh's nodes before any cut
+    Drive d(scenario(tool), Vec3(-0.0037, y0, 0.004), [&](const Simulation& sim) {
+      const ToolBody body(sim.blade(sim.last_sample()), size);
+      const TetMesh& m = sim.mesh();
+      if (generated == 0) generated = m.node_count();
+      for (const NodeId n : m.nodes()) {
+        if (n.index >= generated) continue;  // the cutter's, made on the blade's path
+        const ToolBody::Local l = body.local(m.position(n));
+        if (!body.over_flats(l)) continue;
+        const double side = (m.position(n) - sim.blade(sim.last_sample()).back).dot(Vec3::UnitY());
+        crossed = crossed || side * (m.rest(n).y() - y0) < -1e-12;
+      }
+      if (sim.body_contact() != nullptr) push = std::min(push, sim.body_contact()->force().y());
+    });
+    d.move_to(Vec3(-0.0037, y0, -0.0025), 0.3);  // presses, punctures, cuts in
+    d.move_to(Vec3(0.0043, y0, -0.0025), 0.4);   // the incision
+    d.move_to(Vec3(0.0043, y0 + 0.0015, -0.0025), 0.3);
+    d.move_to(Vec3(0.0043, y0 + 0.0015, -0.0025), 0.2);
+    REQUIRE(d.sim.indentation()->punctures().size() == 1);
+  };
+  bool crossed = false;
+  double push = 0;
+  SUBCASE("with flats") {
+    run("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.004}", crossed, push);
+    CHECK_FALSE(crossed);
+    // The lip pushes back against the blade's motion, and the hand feels it.
+    CHECK(push < -0.05);
+  }
+  SUBCASE("without, the tissue passes through where they would be") {
+    run("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0]}", crossed, push);
+    CHECK(crossed);
+  }
+}
+
+TEST_CASE("the handle pushes the skin it meets: no node inside it, and the hand feels the skin") {
+  // A 4 mm blade driven in upright until its back point is 1.5 mm under the skin: the handle's
+  // rounded end meets the surface.
+  const ToolBodySize size{.handle_radius = 0.003, .handle_length = 0.05};
+  const auto run = [&](const std::string& tool, double& deepest, double& force_z) {
+    deepest = 0;
+    force_z = 0;
+    Drive d(scenario(tool), Vec3(0.0011, 0.0007, 0.006), [&](const Simulation& sim) {
+      const ToolBody body(sim.blade(sim.last_sample()), size);
+      // Cut nodes whose crack has not opened (one copy) are the cutter's: they ride on the blade,
+      // whose back point the handle's end touches.
+      std::vector<std::uint8_t> closed(sim.mesh().node_capacity(), 0);
+      for (const auto& c : sim.cutter().cut_node_copies())
+        if (c.copies.size() == 1) closed[c.copies.front().index] = 1;
+      for (const NodeId n : sim.mesh().nodes()) {
+        const Vec3& x = sim.mesh().position(n);
+        if (closed[n.index]) continue;
+        if (const auto exit = body.handle_exit(x)) deepest = std::max(deepest, (exit->point - x).norm());
+      }
+      if (sim.body_contact() != nullptr) force_z = std::max(force_z, sim.body_contact()->force().z());
+    });
+    d.move_to(Vec3(0.0011, 0.0007, -0.0055), 0.6);
+    d.move_to(Vec3(0.0011, 0.0007, -0.0055), 0.3);
+    REQUIRE(d.sim.indentation()->punctures().size() == 1);
+  };
+  double deepest = 0, force_z = 0;
+  SUBCASE("with a handle") {
+    run("  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0]}\n  handle: {radius: 0.003, length: "
+        "0.05}",
+        deepest, force_z);
+    CHECK(deepest < 1e-6);
+    CHECK(force_z > 0.1);  // the skin pushes the handle up
+  }
+  SUBCASE("without, the skin would be inside it") {
+    run("  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0]}", deepest, force_z);
+    CHECK(deepest > 5e-4);
+  }
+}
+
+TEST_CASE("the blade's width and the handle are read from the scenario, with located errors") {
+  const Scenario s = scenario(
+      "  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.005}\n"
+      "  handle: {radius: 0.004, length: 0.08}");
+  CHECK(s.tool.blade_width == 0.005);
+  CHECK(s.tool.handle_radius == 0.004);
+  CHECK(s.tool.handle_length == 0.08);
+  const auto fails = [](const std::string& tool, const std::string& what) {
+    CAPTURE(tool);
+    try {
+      (void)scenario(tool);
+      FAIL("accepted");
+    } catch (const InputError& e) {
+      CAPTURE(e.what());
+      CHECK(std::string(e.what()).find(what) != std::string::npos);
+      CHECK(std::string(e.what()).find("body.yaml:") != std::string::npos);
+    }
+  };
+  fails("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], width: 0.005}", "needs blade.edge");
+  fails("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0], width: -1}", "0 <= value <= 0.05");
+  fails("  handle: {radius: 0.004}", "length");
+  fails("  handle: {radius: 0.004, length: 0.001}", "radius <= value");
+  fails("  handle: {radius: 0.004, length: 0.08, colour: red}", "colour");
+}
