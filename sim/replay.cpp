@@ -73,6 +73,19 @@ json indentation_json(const Indentation& press, const Simulation& sim) {
           {"local_model_error", error}};
 }
 
+// The blade's flats and the handle on the tissue (sim/tool_body.hpp, docs/formats.md).
+json body_json(const BodyContact& body, const Simulation& sim) {
+  json error = percentiles(sim.body_model_errors(), 1.0);
+  error["frames"] = sim.body_model_errors().size();
+  return {{"blade_width", sim.body_size().blade_width},
+          {"handle", {{"radius", sim.body_size().handle_radius}, {"length", sim.body_size().handle_length}}},
+          {"frames", body.stats().frames_in_contact},
+          {"pushes", body.stats().pushes},
+          {"max_held_nodes", body.stats().max_held},
+          {"max_force", body.stats().max_force},
+          {"local_model_error", error}};
+}
+
 json mesh_json(const MeshSummary& s) {
   return {
       {"nodes", s.nodes},
@@ -521,6 +534,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
           {"mean_in_contact", force_sum / std::max<double>(1.0, static_cast<double>(frames_in_contact))}}}};
     if (const Indentation* press = sim.indentation())
       report["tool_contact"]["indentation"] = indentation_json(*press, sim);
+    if (const BodyContact* body = sim.body_contact()) report["tool_contact"]["body"] = body_json(*body, sim);
   }
   if (const auto score = sim.task_score()) report["task"] = task_json(*score);
   if (!sim.moves().empty()) {

@@ -576,6 +576,9 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     for (const auto& c : cutter_->cut_node_copies())
       copies.insert(copies.end(), c.copies.begin(), c.copies.end());
     body_->settle(blade(last_), copies, mesh_, *tissue_);
+    if (!body_force_published_.isZero() && !body_->force().isZero())
+      body_model_errors_.push_back((body_->force() - body_force_published_).norm());
+    body_force_published_ = body_->force();
   }
   // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue); a
   // blade that has not cut in (contact) cuts nothing the tissue brings to it.

@@ -172,6 +172,10 @@ class Simulation {
   // The blade's flats and the handle pushing the tissue (sim/tool_body.hpp); null without contact
   // or without either.
   [[nodiscard]] const BodyContact* body_contact() const { return body_.get(); }
+  // Per frame in which the body held nodes at the frame before too: |the force the last frame
+  // published - the force the solve gives now| [N]. The hand feels the body's force held over the
+  // frame (ForceModel::body_force).
+  [[nodiscard]] const std::vector<double>& body_model_errors() const { return body_model_errors_; }
   // The tool's body as it is after the last sample.
   [[nodiscard]] ToolBody tool_body() const { return {blade(last_), body_size()}; }
   [[nodiscard]] ToolBodySize body_size() const {
@@ -261,6 +265,8 @@ class Simulation {
   std::uint64_t force_sequence_ = 0;
   std::unique_ptr<Indentation> indentation_;
   std::unique_ptr<BodyContact> body_;
+  Vec3 body_force_published_ = Vec3::Zero();  // [N] world, at the last frame
+  std::vector<double> body_model_errors_;
   std::optional<ForceModel> press_model_;  // published at the last frame, while pressing
   std::vector<double> press_model_errors_;
 };

@@ -152,6 +152,12 @@ void SnapshotBuilder::fill(const Simulation& sim, bool with_edges, FrameSnapshot
     const BladePose b = sim.blade(sim.last_sample());
     out.blade_back = b.back;
     out.blade_tip = b.tip;
+    const ToolBodySize size = sim.body_size();
+    const ToolBody body(b, size);
+    out.blade_spine =
+        body.has_flats() ? Vec3(body.world({0.0, size.blade_width, 0.0}) - b.back) : Vec3::Zero();
+    out.handle_radius = size.handle_radius;
+    out.handle_length = size.handle_length;
   }
   out.targets.clear();
   if (const auto& task = sim.scenario().task)

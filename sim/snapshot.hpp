@@ -48,6 +48,10 @@ struct FrameSnapshot {
   // The blade where the last tool sample put it [m]; none before the first sample.
   bool has_blade = false;
   Vec3 blade_back = Vec3::Zero(), blade_tip = Vec3::Zero();
+  // From the edge to the spine across the blade [m], zero without flats (sim/tool_body.hpp); the
+  // handle's radius and length [m], zero when the scenario gives none.
+  Vec3 blade_spine = Vec3::Zero();
+  double handle_radius = 0.0, handle_length = 0.0;
 
   // The instructor's target incisions (the scenario's task), empty without one.
   struct Target {

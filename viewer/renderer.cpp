@@ -151,6 +151,7 @@ constexpr double kOverlayLift = 0.15e-3;
 constexpr double kLineWidth = 0.2e-3;            // [m] target line and band edges
 constexpr double kDash = 1.0e-3, kGap = 0.6e-3;  // [m] the target line's dashes
 constexpr double kBladeRadius = 0.3e-3, kHandleRadius = 1.2e-3, kHandleLength = 0.02;  // [m]
+constexpr double kMaxHandleLength = 0.04;                                              // [m]
 
 }  // namespace
 
@@ -261,8 +262,20 @@ void Renderer::build_overlays(const FrameSnapshot& s, const RenderOptions& o) {
       }
     };
     prism(s.blade_back, s.blade_tip, kBladeRadius, Palette::kBlade);
+    if (!s.blade_spine.isZero()) {
+      // The flats, from the edge back to the spine: seen from either side.
+      const Vec3 a = s.blade_back, b = s.blade_tip, c = s.blade_tip + s.blade_spine,
+                 d = s.blade_back + s.blade_spine;
+      const float shade = 0.6f + 0.4f * static_cast<float>(std::abs((b - a).cross(d - a).normalized().z()));
+      quad(a, b, c, d, rgba(Palette::kBlade, 1.0f, shade));
+      quad(a, d, c, b, rgba(Palette::kBlade, 1.0f, shade));
+    }
     const Vec3 back = (s.blade_back - s.blade_tip).normalized();
-    if (o.handle) prism(s.blade_back + back * kHandleLength, s.blade_back, kHandleRadius, Palette::kHandle);
+    // The scenario's handle where it gives one (its contact shape, sim/tool_body.hpp), drawn no
+    // longer than kMaxHandleLength so that the view stays on the tissue.
+    const double radius = s.handle_radius > 0.0 ? s.handle_radius : kHandleRadius;
+    const double length = s.handle_length > 0.0 ? std::min(s.handle_length, kMaxHandleLength) : kHandleLength;
+    if (o.handle) prism(s.blade_back + back * length, s.blade_back, radius, Palette::kHandle);
   }
   if (o.wireframe) {
     const std::array<float, 4> colour{0.08f, 0.08f, 0.10f, 0.35f};
