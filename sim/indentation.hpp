@@ -21,12 +21,12 @@
 // where it touched, or the tissue no longer pushes a blade that has pressed it in (drawn back faster
 // than the skin follows).
 //
-// The blade's flats and the handle push the tissue through sim/tool_body.hpp. What the press does
-// not model: the held patch is one triangle of the mesh, so the stiffness the hand feels grows with the mesh's cells, and it
-// stays where it was touched (a blade drawn along the skin far from it presses nothing new); the
-// skin's pull on an edge drawn along it (slicing) does not count towards the puncture;
-// a blade that jumps into the tissue between two samples (a gap, or samples merged while the
-// simulation fell behind) cuts in at once, as without contact.
+// The blade's flats and the handle push the tissue through sim/tool_body.hpp. What the press
+// does not model: the held patch is one triangle of the mesh, so the stiffness the hand feels
+// grows with the mesh's cells, and it stays where it was touched (a blade drawn along the skin far
+// from it presses nothing new); the skin's pull on an edge drawn along it (slicing) does not count
+// towards the puncture; a blade that jumps into the tissue between two samples (a gap, or samples
+// merged while the simulation fell behind) cuts in at once, as without contact.
 #pragma once
 
 #include <cstdint>
