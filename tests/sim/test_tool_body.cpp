@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
 #include <string>
 
 #include "base/input_error.hpp"
+#include "mesh/validate.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 #include "sim/tool_body.hpp"
@@ -220,4 +223,92 @@ TEST_CASE("the blade's width and the handle are read from the scenario, with loc
   fails("  handle: {radius: 0.004}", "length");
   fails("  handle: {radius: 0.004, length: 0.001}", "radius <= value");
   fails("  handle: {radius: 0.004, length: 0.08, colour: red}", "colour");
+}
+
+TEST_CASE(
+    "random strokes with the body: no node passes through the flats or lies in the handle, and the mesh "
+    "stays valid" *
+    doctest::test_suite("slow")) {
+  // Seeded strokes on the small patch: the blade goes in upright with a random lean, then for a
+  // second moves forward, sideways (flat first), turns about its axis and goes deeper, at random.
+  // After every frame: the mesh's invariants; no node of the generated mesh that was over the
+  // flats and 50 µm or more off their plane at the frame before is on their other side (it
+  // passed through them); no node inside the handle but the cutter's on the blade (cut nodes
+  // whose crack has not opened).
+  const ToolBodySize size{.blade_width = 0.003, .handle_radius = 0.0025, .handle_length = 0.05};
+  const Scenario sc = scenario(
+      "  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.003}\n"
+      "  handle: {radius: 0.0025, length: 0.05}");
+  std::mt19937_64 rng(0xb0d7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::size_t pushes = 0, checked = 0;
+  for (int stroke = 0; stroke < 12; ++stroke) {
+    CAPTURE(stroke);
+    std::size_t generated = 0;
+    std::vector<double> side_before;  // by node slot: off the flats' plane, NaN when not over them
+    int passed = 0, inside = 0;
+    std::string invalid;
+    const double volume = [&] {
+      Simulation probe(sc);
+      return probe.mesh().total_rest_volume();
+    }();
+    Drive d(sc, Vec3(0.001 * unit(rng), 0.001 * unit(rng), 0.005), [&](const Simulation& sim) {
+      const TetMesh& m = sim.mesh();
+      if (generated == 0) generated = m.node_count();
+      const BladePose pose = sim.blade(sim.last_sample());
+      const ToolBody body(pose, size);
+      std::vector<std::uint8_t> closed(m.node_capacity(), 0);
+      for (const auto& c : sim.cutter().cut_node_copies())
+        if (c.copies.size() == 1) closed[c.copies.front().index] = 1;
+      std::vector<double> side(generated, std::numeric_limits<double>::quiet_NaN());
+      for (const NodeId n : m.nodes()) {
+        const Vec3& x = m.position(n);
+        if (!closed[n.index] && body.handle_exit(x) && (body.handle_exit(x)->point - x).norm() > 1e-9)
+          ++inside;
+        if (n.index >= generated) continue;
+        const ToolBody::Local l = body.local(x);
+        if (!body.over_flats(l)) continue;
+        side[n.index] = l.d;
+        const double b = n.index < side_before.size() ? side_before[n.index] : std::nan("");
+        if (std::abs(b) >= kSideBand && b * l.d < 0.0) ++passed;
+        ++checked;
+      }
+      side_before = std::move(side);
+      if (invalid.empty()) {
+        ValidationOptions o;
+        o.reference_volume = volume;
+        if (const ValidationReport r = validate(m, o); !r.ok()) invalid = r.summary();
+      }
+    });
+    // In upright with a lean, then eight random moves of an eighth of a second.
+    const Eigen::Quaterniond lean(Eigen::AngleAxisd(0.35 * unit(rng), Vec3::UnitY()));
+    d.s.orientation = lean;
+    d.move_to(Vec3(d.s.position.x(), d.s.position.y(), -0.002), 0.4);
+    for (int k = 0; k < 8; ++k) {
+      const Vec3 step(0.0015 * unit(rng), 0.0008 * unit(rng), 0.0005 * unit(rng));
+      Vec3 to = d.s.position + step;
+      to.z() = std::clamp(to.z(), -0.0045, -0.0005);
+      to.x() = std::clamp(to.x(), -0.006, 0.006);
+      to.y() = std::clamp(to.y(), -0.006, 0.006);
+      const double turn = 0.15 * unit(rng);  // about the blade's axis
+      const Eigen::Quaterniond from_q = d.s.orientation;
+      const Eigen::Quaterniond to_q = from_q * Eigen::Quaterniond(Eigen::AngleAxisd(turn, Vec3::UnitZ()));
+      const Vec3 p0 = d.s.position;
+      for (int j = 1; j <= 125; ++j) {
+        const double u = j / 125.0;
+        d.s.orientation = from_q.slerp(u, to_q);
+        d.s.t += 0.001;
+        d.s.position = p0 + u * (to - p0);
+        d.sim.on_sample(d.s);
+        if (++d.samples % 16 == 0) d.frame();
+      }
+    }
+    d.move_to(Vec3(d.s.position.x(), d.s.position.y(), 0.006), 0.3);
+    CHECK(passed == 0);
+    CHECK(inside == 0);
+    CHECK(invalid.empty());
+    pushes += d.sim.body_contact()->stats().pushes;
+  }
+  MESSAGE(checked << " node-frames over the flats checked, " << pushes << " nodes put back on the body");
+  CHECK(pushes > 0);
 }
