@@ -8,7 +8,7 @@
 //   contact (a penalty plane, n the outward tissue normal, the tissue where n.x < d):
 //                                                      k_s max(0, d - n.x) n
 //   cutting resistance (against the blade's motion):   -R v / max(|v|, v_eps)
-//   the tool's body on the tissue (held over the frame): F_b
+//   the tool's body (flats, handle) on the tissue:      max(0, F_b + k_b n_b.(x_b - x)) n_b
 // The simulation sets k_c to zero while the tool is free. The sum is clamped to the device's force
 // limit and rate-limited; it is zero on a device fault, before any model, and while the
 // simulation stalls.
@@ -25,6 +25,7 @@
 // accounted for too.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <type_traits>
 
@@ -51,9 +52,19 @@ struct ForceModel {
 
   double cutting_resistance = 0.0;  // R [N], 0 while not cutting
 
-  // F_b [N]: the tissue's push on the blade's flats and the handle (sim/tool_body.hpp), as the last
-  // full solve gave it.
-  Eigen::Vector3d body_force = Eigen::Vector3d::Zero();
+  // The tissue's push on the blade's flats and the handle (sim/tool_body.hpp): F_b [N] along the
+  // unit n_b as the last full solve gave it with the tool at x_b [m], growing by k_b [N/m] as the
+  // tool moves against n_b. F_b = 0: none.
+  double body_force = 0.0;
+  Eigen::Vector3d body_normal = Eigen::Vector3d::UnitZ();
+  double body_stiffness = 0.0;
+  Eigen::Vector3d body_position = Eigen::Vector3d::Zero();
+
+  // [N] The body's force at tool position x: max(0, F_b + k_b n_b.(x_b - x)) n_b.
+  [[nodiscard]] Eigen::Vector3d body_force_at(const Eigen::Vector3d& x) const {
+    if (!(body_force > 0.0)) return Eigen::Vector3d::Zero();
+    return std::max(0.0, body_force + body_stiffness * body_normal.dot(body_position - x)) * body_normal;
+  }
 
   // [N] The contact's force along contact_normal at tool position x: k_s max(0, d - n.x); 0 without
   // contact.

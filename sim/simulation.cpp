@@ -576,9 +576,7 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     for (const auto& c : cutter_->cut_node_copies())
       copies.insert(copies.end(), c.copies.begin(), c.copies.end());
     body_->settle(blade(last_), copies, mesh_, *tissue_);
-    if (!body_force_published_.isZero() && !body_->force().isZero())
-      body_model_errors_.push_back((body_->force() - body_force_published_).norm());
-    body_force_published_ = body_->force();
+    update_body_model();
   }
   // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue); a
   // blade that has not cut in (contact) cuts nothing the tissue brings to it.
@@ -596,7 +594,12 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   model.t = t;
   model.constrained_position = last_.position;
   model.cutting_resistance = scenario_.tool.cutting_resistance * contact_.length;
-  if (body_) model.body_force = scenario_.device.mapping.rotation.conjugate() * body_->force();
+  if (body_model_) {
+    model.body_force = body_model_->body_force;
+    model.body_normal = body_model_->body_normal;
+    model.body_stiffness = body_model_->body_stiffness;
+    model.body_position = body_model_->body_position;
+  }
   if (indentation_ && indentation_->phase() == Indentation::Phase::Pressing) {
     set_contact_model(model);
     press_model_ = model;
@@ -604,11 +607,42 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     press_model_.reset();
   }
   forces.publish(model);
-  const Vec3 body_force = body_ ? body_->force() : Vec3::Zero();
+  const Vec3 body_force = body_ ? body_->force() : Vec3::Zero();  // on the tool
   // On the tissue: the edge's push or the press (the tissue's load on the blade, reversed), and the
   // body's.
   contact_forces_.push_back(((pressing ? Vec3(-indentation_->force()) : contact_.force) - body_force).norm());
   if (samples_ > 0) frame_start_ = last_;
+}
+
+// The flats' and the handle's force as the hand feels it until the next frame (ForceModel): the
+// solved force along its own direction, growing by a stiffness measured between the last two
+// frames in contact: the change of the force over the tool's motion against it, where the tool
+// moved more than kBodyStiffnessTravel across the force.
+void Simulation::update_body_model() {
+  const DeviceMapping& map = scenario_.device.mapping;
+  const Vec3 f = map.rotation.conjugate() * body_->force();  // device axes
+  const Vec3& x = last_.position;
+  // The model the hand felt since the last frame, where the tool is now, against the solve.
+  if (body_model_ && f.norm() > 0.0) body_model_errors_.push_back((body_model_->body_force_at(x) - f).norm());
+  if (!(f.norm() > 0.0)) {
+    body_model_.reset();
+    return;
+  }
+  ForceModel m;
+  m.body_force = f.norm();
+  m.body_normal = f / f.norm();
+  m.body_position = x;
+  if (body_model_) {
+    m.body_stiffness = body_model_->body_stiffness;
+    // The tool's motion against the force [device m], and the force's change along it.
+    const double into = m.body_normal.dot(body_model_->body_position - x);
+    if (std::abs(into) * map.scale > kBodyStiffnessTravel) {
+      const double grew =
+          m.body_force - body_model_->body_force * body_model_->body_normal.dot(m.body_normal);
+      m.body_stiffness = std::clamp(grew / into, 0.0, kMaxBodyStiffness * map.scale);
+    }
+  }
+  body_model_ = m;
 }
 
 void Simulation::settle_press(double t) {

@@ -172,9 +172,9 @@ class Simulation {
   // The blade's flats and the handle pushing the tissue (sim/tool_body.hpp); null without contact
   // or without either.
   [[nodiscard]] const BodyContact* body_contact() const { return body_.get(); }
-  // Per frame in which the body held nodes at the frame before too: |the force the last frame
-  // published - the force the solve gives now| [N]. The hand feels the body's force held over the
-  // frame (ForceModel::body_force).
+  // Per frame in which the body held nodes at the frame before too: |the force the last frame's
+  // model gives at the tool's position now - the force the solve gives now| [N]
+  // (ForceModel::body_force_at()).
   [[nodiscard]] const std::vector<double>& body_model_errors() const { return body_model_errors_; }
   // The tool's body as it is after the last sample.
   [[nodiscard]] ToolBody tool_body() const { return {blade(last_), body_size()}; }
@@ -225,6 +225,12 @@ class Simulation {
   // With contact, at the end of a frame spent pressing: the press's force, puncture or lift-off.
   void settle_press(double t);
   void set_contact_model(ForceModel& model) const;
+  void update_body_model();
+  // The body's stiffness is measured over at least this much of the tool's motion across its force
+  // [m], and at most this stiff [N/m] (a sharp contact on skin; the device's force limit bounds
+  // what the hand gets).
+  static constexpr double kBodyStiffnessTravel = 20e-6;
+  static constexpr double kMaxBodyStiffness = 1e4;
 
   Scenario scenario_;
   TetMesh mesh_;
@@ -265,7 +271,7 @@ class Simulation {
   std::uint64_t force_sequence_ = 0;
   std::unique_ptr<Indentation> indentation_;
   std::unique_ptr<BodyContact> body_;
-  Vec3 body_force_published_ = Vec3::Zero();  // [N] world, at the last frame
+  std::optional<ForceModel> body_model_;  // the body's part of the last frame's force model
   std::vector<double> body_model_errors_;
   std::optional<ForceModel> press_model_;  // published at the last frame, while pressing
   std::vector<double> press_model_errors_;

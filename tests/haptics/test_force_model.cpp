@@ -52,6 +52,28 @@ TEST_CASE("contact pushes out of the tissue plane only when below it") {
   CHECK(r.render(Eigen::Vector3d(0, 0.048, 0), &m, true).isApprox(Eigen::Vector3d(0, 1.0, 0)));
 }
 
+TEST_CASE("the body's force is the solved one at the frame's tool position and grows by its stiffness") {
+  ForceModel m;
+  m.sequence = 1;
+  m.body_force = 0.5;
+  m.body_normal = Eigen::Vector3d::UnitX();
+  m.body_stiffness = 1000.0;
+  m.body_position = Eigen::Vector3d(0.01, 0, 0);
+  CHECK(m.body_force_at(Eigen::Vector3d(0.01, 0.02, 0)).isApprox(Eigen::Vector3d(0.5, 0, 0)));  // sideways
+  CHECK(m.body_force_at(Eigen::Vector3d(0.009, 0, 0)).isApprox(Eigen::Vector3d(1.5, 0, 0)));    // pushed in
+  CHECK(m.body_force_at(Eigen::Vector3d(0.0104, 0, 0)).isApprox(Eigen::Vector3d(0.1, 0, 0)));
+  CHECK(m.body_force_at(Eigen::Vector3d(0.011, 0, 0)).isZero());  // drawn back: it never pulls
+  m.body_stiffness = 0.0;
+  CHECK(m.body_force_at(Eigen::Vector3d(0.011, 0, 0)).isApprox(Eigen::Vector3d(0.5, 0, 0)));  // held
+  m.body_force = 0.0;
+  CHECK(m.body_force_at(Eigen::Vector3d(0.009, 0, 0)).isZero());  // none
+  // The renderer adds it.
+  ForceRenderer r({.max_force = 10.0, .max_force_rate = 1e9}, kRate);
+  m.body_force = 0.5;
+  m.body_stiffness = 1000.0;
+  CHECK(r.render(Eigen::Vector3d(0.009, 0, 0), &m, true).isApprox(Eigen::Vector3d(1.5, 0, 0)));
+}
+
 TEST_CASE("cutting resistance opposes the blade's motion with its full magnitude") {
   ForceRenderer r({.max_force = 10.0, .max_force_rate = 1e9}, kRate);
   ForceModel m;
