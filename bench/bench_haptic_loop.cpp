@@ -46,7 +46,8 @@ double percentile(std::vector<double> v, double p) {
 }
 
 // A local model as the simulation publishes it while the blade presses the skin: the surface's
-// plane 1 mm above the tool, its stiffness, and the cutting resistance.
+// plane 1 mm above the tool, its stiffness, the cutting resistance, and a lip pressing on the
+// blade's flat.
 scalpel::ForceModel pressed_surface(std::uint64_t sequence, const Eigen::Vector3d& at) {
   scalpel::ForceModel m;
   m.sequence = sequence;
@@ -55,6 +56,10 @@ scalpel::ForceModel pressed_surface(std::uint64_t sequence, const Eigen::Vector3
   m.contact_offset = at.z() + 0.001;
   m.contact_stiffness = 2000.0;
   m.cutting_resistance = 0.5;
+  m.body_force = 0.3;
+  m.body_normal = Eigen::Vector3d::UnitY();
+  m.body_stiffness = 500.0;
+  m.body_position = at;
   return m;
 }
 
