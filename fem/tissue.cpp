@@ -48,6 +48,8 @@ void TissueModel::grow() {
   const std::size_t nn = mesh_.node_capacity();
   if (fixed_.size() < nn) {
     fixed_.resize(nn, 0);
+    held_.resize(nn, 0);
+    prescribed_.resize(nn, 0);
     active_.resize(nn, 0);
     passenger_.resize(nn, 0);
     dirty_.resize(nn, 0);
@@ -116,6 +118,8 @@ void TissueModel::on_nodes_added(std::span<const NodeId> nodes, std::span<const 
       }
     }
     fixed_[n] = fix ? 1 : 0;
+    held_[n] = 0;
+    prescribed_[n] = fixed_[n];
     external_[n].setZero();
     if (k < parents.size() && parents[k].count > 0) born_.emplace_back(n, parents[k].parents[0].index);
     if (!dirty_[n]) {
@@ -129,6 +133,7 @@ void TissueModel::set_fixed(NodeId n, bool fix) {
   if (!mesh_.alive(n)) throw std::invalid_argument("tissue: set_fixed on a dead node");
   grow();
   fixed_[n.index] = fix ? 1 : 0;
+  prescribed_[n.index] = fixed_[n.index] | held_[n.index];
   if (!dirty_[n.index]) {
     dirty_[n.index] = 1;
     dirty_list_.push_back(n.index);
@@ -137,6 +142,21 @@ void TissueModel::set_fixed(NodeId n, bool fix) {
 
 bool TissueModel::fixed(NodeId n) const {
   return n.index < fixed_.size() && fixed_[n.index];
+}
+
+void TissueModel::set_held(NodeId n, bool hold) {
+  if (!mesh_.alive(n)) throw std::invalid_argument("tissue: set_held on a dead node");
+  grow();
+  held_[n.index] = hold ? 1 : 0;
+  prescribed_[n.index] = fixed_[n.index] | held_[n.index];
+  if (!dirty_[n.index]) {
+    dirty_[n.index] = 1;
+    dirty_list_.push_back(n.index);
+  }
+}
+
+bool TissueModel::held(NodeId n) const {
+  return n.index < held_.size() && held_[n.index];
 }
 
 void TissueModel::set_external_force(NodeId n, const Vec3& f) {
@@ -202,7 +222,7 @@ void TissueModel::rebuild_row(std::uint32_t i) {
     mass_damping_[i] += m.damping_mass * m.density * rest_[t].mass_volume / 4.0;
   }
   row.blocks.assign(row.cols.size(), Mat3::Zero());
-  const bool free = !fixed_[i] && mass_[i] > 0;
+  const bool free = !prescribed_[i] && mass_[i] > 0;
   active_[i] = (free && supported) ? 1 : 0;
   passenger_[i] = (free && !supported) ? 1 : 0;
 }
@@ -714,7 +734,7 @@ void TissueModel::apply_velocities(double dt) {
       Vec3 sum = Vec3::Zero();
       int count = 0;
       for (const std::uint32_t j : rows_[i].cols)
-        if (active_[j] || fixed_[j]) {
+        if (active_[j] || prescribed_[j]) {
           sum += v_[j];
           ++count;
         }

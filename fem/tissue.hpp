@@ -167,9 +167,17 @@ class TissueModel {
   [[nodiscard]] const StepStats& last_step() const { return last_; }
 
   // ---- boundary conditions and loads ---------------------------------------------------------
-  // A fixed node keeps its position (which the caller may set) and has zero velocity.
+  // A fixed node keeps its position (which the caller may set) and has zero velocity: a boundary
+  // condition, which a node the cutter makes between fixed nodes inherits (on_nodes_added()).
   void set_fixed(NodeId n, bool fixed = true);
   [[nodiscard]] bool fixed(NodeId n) const;
+  // A held node is prescribed as a fixed one, by a tool for as long as it holds it: never
+  // inherited by the cutter's nodes, and not a boundary condition (a piece held only by a tool is
+  // not anchored).
+  void set_held(NodeId n, bool held = true);
+  [[nodiscard]] bool held(NodeId n) const;
+  // Fixed or held: the solve keeps its position.
+  [[nodiscard]] bool prescribed(NodeId n) const { return fixed(n) || held(n); }
   // External force on a node, e.g. tool contact [N]; stays until changed or cleared.
   void set_external_force(NodeId n, const Vec3& f);
   void clear_external_forces();
@@ -259,7 +267,8 @@ class TissueModel {
   std::vector<MassSpringState> spring_;
 
   // Per node slot.
-  std::vector<std::uint8_t> fixed_, active_, dirty_;
+  // prescribed_ = fixed_ | held_, what the solve keeps in place.
+  std::vector<std::uint8_t> fixed_, held_, prescribed_, active_, dirty_;
   std::vector<std::uint8_t> passenger_;  // free, but no element supports it (see above)
   std::vector<Vec3> external_;
   std::vector<double> mass_;

@@ -34,10 +34,10 @@ void Indentation::touch(std::span<const std::uint32_t> face, const Vec3& tip, co
   region_ = -1;
   for (const std::uint32_t slot : face) {
     const NodeId n = mesh.node_handle(slot);
-    if (tissue.fixed(n)) continue;
+    if (tissue.prescribed(n)) continue;
     stuck_.push_back(n);
     stuck_at_.push_back(mesh.position(n));
-    tissue.set_fixed(n);
+    tissue.set_held(n);
     // The weakest region around the stuck nodes gives way first.
     for (const std::uint32_t tet : mesh.node_tets(n)) {
       const int r = mesh.region(mesh.tet_handle(tet));
@@ -105,7 +105,7 @@ Indentation::Phase Indentation::settle(double t, const BladePose& blade, TissueM
 }
 
 void Indentation::let_go(TissueModel& tissue) {
-  for (const NodeId n : stuck_) tissue.set_fixed(n, false);
+  for (const NodeId n : stuck_) tissue.set_held(n, false);
   stuck_.clear();
   stuck_at_.clear();
 }

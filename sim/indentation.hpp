@@ -72,8 +72,9 @@ class Indentation {
   [[nodiscard]] Phase phase() const { return phase_; }
 
   // Free -> Pressing at time t: the tip met the surface at `point`, outward normal `normal`; the
-  // surface nodes `face` (node slots) stick to it from now on. Fixed nodes stay as they are; with
-  // none left to stick, the blade cuts at once (Cutting).
+  // surface nodes `face` (node slots) stick to it from now on (TissueModel::set_held). Fixed nodes
+  // and nodes already held stay as they are; with none left to stick, the blade cuts at once
+  // (Cutting).
   void touch(std::span<const std::uint32_t> face, const Vec3& tip, const Vec3& point, const Vec3& normal,
              double t, const TetMesh& mesh, TissueModel& tissue);
   // Pressing: before the tissue steps, the stuck nodes follow the tip's translation since the touch

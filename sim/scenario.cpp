@@ -322,8 +322,8 @@ void Parser::tool(const Value& v, ToolSettings& out) const {
     out.handle_radius = number(r);
     check(r, out.handle_radius > 0.0 && out.handle_radius <= 0.05, "0 < value <= 0.05 [m]");
     out.handle_length = number(l);
-    check(l, out.handle_length >= out.handle_radius && out.handle_length <= 0.5,
-          "radius <= value <= 0.5 [m]");
+    check(l, out.handle_length >= 2.0 * out.handle_radius && out.handle_length <= 0.5,
+          "2 radius <= value <= 0.5 [m]");
     if (out.contact != ToolContactKind::Indent)
       fail(*x, "the handle pushes the tissue only with contact: indent");
   }

@@ -559,7 +559,8 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     push_tissue();
   }
   // The flats and the handle carry the nodes they hold to where the tool is now.
-  if (body_) body_->follow(blade(last_), mesh_, *tissue_);
+  // (Before the first sample there is no tool.)
+  if (body_ && samples_ > 0) body_->follow(blade(last_), mesh_, *tissue_);
   const double dt = 1.0 / scenario_.tissue.rate;
   while (!scenario_.tissue.rigid && tissue_time_ + dt <= t + 1e-12) {
     const auto start = std::chrono::steady_clock::now();
@@ -571,7 +572,7 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     tissue_time_ += dt;
   }
   if (pressing) settle_press(t);
-  if (body_) {
+  if (body_ && samples_ > 0) {
     std::vector<NodeId> copies;
     for (const auto& c : cutter_->cut_node_copies())
       copies.insert(copies.end(), c.copies.begin(), c.copies.end());
@@ -623,7 +624,7 @@ void Simulation::update_body_model() {
   const Vec3 f = map.rotation.conjugate() * body_->force();  // device axes
   const Vec3& x = last_.position;
   // The model the hand felt since the last frame, where the tool is now, against the solve.
-  if (body_model_ && f.norm() > 0.0) body_model_errors_.push_back((body_model_->body_force_at(x) - f).norm());
+  if (body_model_) body_model_errors_.push_back((body_model_->body_force_at(x) - f).norm());
   if (!(f.norm() > 0.0)) {
     body_model_.reset();
     return;

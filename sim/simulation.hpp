@@ -172,8 +172,8 @@ class Simulation {
   // The blade's flats and the handle pushing the tissue (sim/tool_body.hpp); null without contact
   // or without either.
   [[nodiscard]] const BodyContact* body_contact() const { return body_.get(); }
-  // Per frame in which the body held nodes at the frame before too: |the force the last frame's
-  // model gives at the tool's position now - the force the solve gives now| [N]
+  // Per frame after one in which the body pressed on the tissue: |the force the last frame's model
+  // gives at the tool's position now - the force the solve gives now| [N]
   // (ForceModel::body_force_at()).
   [[nodiscard]] const std::vector<double>& body_model_errors() const { return body_model_errors_; }
   // The tool's body as it is after the last sample.

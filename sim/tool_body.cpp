@@ -65,7 +65,7 @@ ToolBody::Exit ToolBody::handle_nearest(const Vec3& x, double& distance) const {
   // The capsule's axis runs away from the tip, from one radius above the back point to one radius
   // short of the handle's length: its rounded ends reach the back point and the length.
   const double r = size_.handle_radius;
-  const Vec3 a = back_ - r * axis_, b = back_ - std::max(size_.handle_length - r, r) * axis_;
+  const Vec3 a = back_ - r * axis_, b = back_ - (size_.handle_length - r) * axis_;
   const Vec3 ab = b - a;
   const double u = std::clamp((x - a).dot(ab) / std::max(ab.squaredNorm(), 1e-300), 0.0, 1.0);
   const Vec3 c = a + u * ab;
@@ -76,11 +76,11 @@ ToolBody::Exit ToolBody::handle_nearest(const Vec3& x, double& distance) const {
   return Exit{c + r * out, out};
 }
 
-std::optional<ToolBody::Exit> ToolBody::handle_exit(const Vec3& x) const {
+std::optional<ToolBody::Exit> ToolBody::handle_exit(const Vec3& x, double slack) const {
   if (!has_handle()) return std::nullopt;
   double distance = 0;
   const Exit e = handle_nearest(x, distance);
-  if (!(distance < size_.handle_radius)) return std::nullopt;
+  if (!(distance < size_.handle_radius + slack)) return std::nullopt;
   return e;
 }
 
@@ -101,21 +101,21 @@ void ToolBody::bounds(Vec3& lo, Vec3& hi) const {
     add(back_ + size_.blade_width * spine_, 0.0);
     add(tip + size_.blade_width * spine_, 0.0);
   }
-  if (has_handle())
-    add(back_ - std::max(size_.handle_length - size_.handle_radius, size_.handle_radius) * axis_,
-        size_.handle_radius);
+  if (has_handle()) add(back_ - (size_.handle_length - size_.handle_radius) * axis_, size_.handle_radius);
 }
 
 bool BodyContact::put_back(const ToolBody& body, Held& h, TetMesh& mesh) const {
   Vec3& x = mesh.positions()[h.node.index];
+  // A held node lies kFlatClearance off the body; the body has moved away from it only once it
+  // is twice that off: a node the body leaves where it put it stays held.
   if (h.handle) {
-    const auto exit = body.handle_exit(x);
+    const auto exit = body.handle_exit(x, 2.0 * kFlatClearance);
     if (!exit) return false;
     x = exit->point + kFlatClearance * exit->normal;
   } else {
     const ToolBody::Local l = body.local(x);
     // Slid off the flats, or the flats have moved away from it.
-    if (!body.over_flats(l) || h.side * l.d > kFlatClearance) return false;
+    if (!body.over_flats(l) || h.side * l.d > 2.0 * kFlatClearance) return false;
     x = body.world({l.s, l.w, h.side * kFlatClearance});
   }
   mesh.velocities()[h.node.index].setZero();
@@ -123,52 +123,35 @@ bool BodyContact::put_back(const ToolBody& body, Held& h, TetMesh& mesh) const {
 }
 
 void BodyContact::let_go(std::size_t i, const TetMesh& mesh, TissueModel& tissue) {
-  if (mesh.alive(held_nodes_[i].node)) tissue.set_fixed(held_nodes_[i].node, false);
+  if (mesh.alive(held_nodes_[i].node)) tissue.set_held(held_nodes_[i].node, false);
   held_nodes_.erase(held_nodes_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 
-void BodyContact::release(const TetMesh& mesh, TissueModel& tissue) {
-  while (!held_nodes_.empty()) let_go(held_nodes_.size() - 1, mesh, tissue);
+void BodyContact::list_held() {
   held_.clear();
-  force_.setZero();
+  for (const Held& h : held_nodes_) held_.push_back(h.node);
 }
 
 void BodyContact::follow(const BladePose& blade, TetMesh& mesh, TissueModel& tissue) {
   const ToolBody body(blade, size_);
   for (std::size_t i = held_nodes_.size(); i-- > 0;) {
     Held& h = held_nodes_[i];
-    if (!mesh.alive(h.node)) {
+    if (!mesh.alive(h.node) || !put_back(body, h, mesh)) {
       let_go(i, mesh, tissue);
       continue;
     }
-    if (!put_back(body, h, mesh)) let_go(i, mesh, tissue);
+    // The edge's drag on the tissue (Simulation::push_tissue) does not move a held node: it is
+    // not part of what the node presses on the body.
+    tissue.set_external_force(h.node, Vec3::Zero());
   }
-  held_.clear();
-  for (const Held& h : held_nodes_) held_.push_back(h.node);
+  list_held();
 }
 
 Vec3 BodyContact::settle(const BladePose& blade, std::span<const NodeId> cut_copies, TetMesh& mesh,
                          TissueModel& tissue) {
   const ToolBody body(blade, size_);
-  // The force on the body: what each held node presses on it. One the tissue pulls away (its
-  // load points out of the body) is let go and carries none.
-  force_.setZero();
-  for (std::size_t i = held_nodes_.size(); i-- > 0;) {
-    const Held& h = held_nodes_[i];
-    if (!mesh.alive(h.node)) {
-      let_go(i, mesh, tissue);
-      continue;
-    }
-    const NodeId one[1] = {h.node};
-    const Vec3 load = tissue.load_on_holder(one);
-    const Vec3& x = mesh.position(h.node);
-    const Vec3 out = h.handle ? body.handle_normal(x) : Vec3(h.side * body.normal());
-    if (!(load.dot(out) < 0.0)) {
-      let_go(i, mesh, tissue);
-      continue;
-    }
-    force_ += load;
-  }
+  for (std::size_t i = held_nodes_.size(); i-- > 0;)
+    if (!mesh.alive(held_nodes_[i].node)) let_go(i, mesh, tissue);
   // Nodes that passed through the flats or are inside the handle: put back and held.
   Vec3 lo, hi;
   body.bounds(lo, hi);
@@ -182,14 +165,13 @@ Vec3 BodyContact::settle(const BladePose& blade, std::span<const NodeId> cut_cop
     return side_generation_[i] == mesh.node_handle(i).generation ? side_[i]
                                                                  : std::numeric_limits<double>::quiet_NaN();
   };
-  std::vector<std::uint8_t> is_held(x.size(), 0), cut(x.size(), 0);
+  cut_.assign(x.size(), 0);
   for (const NodeId c : cut_copies)
-    if (mesh.alive(c)) cut[c.index] = 1;
-  for (const Held& h : held_nodes_) is_held[h.node.index] = 1;
+    if (mesh.alive(c)) cut_[c.index] = 1;
   for (std::uint32_t i = 0; i < x.size(); ++i) {
-    if (!mesh.node_slot_alive(i) || is_held[i]) continue;
+    if (!mesh.node_slot_alive(i)) continue;
     const NodeId n = mesh.node_handle(i);
-    if (tissue.fixed(n)) continue;
+    if (tissue.prescribed(n)) continue;  // fixed, held by the press, or held already
     Held h{n, false, 0.0};
     if (body.has_flats()) {
       const ToolBody::Local l = body.local(x[i]);
@@ -197,8 +179,8 @@ Vec3 BodyContact::settle(const BladePose& blade, std::span<const NodeId> cut_cop
         // A lip's node is on its lip's side (none while the crack is closed there: the tissue
         // may have carried it across the plane before it opened); any other on the side it was on.
         double side = 0.0;
-        if (cut[i]) {
-          side = lip_side(mesh, n, cut, body.normal());
+        if (cut_[i]) {
+          side = lip_side(mesh, n, cut_, body.normal());
         } else {
           const double before = side_of(i);
           side = before > 0.0 ? 1.0 : before < 0.0 ? -1.0 : 0.0;
@@ -214,27 +196,42 @@ Vec3 BodyContact::settle(const BladePose& blade, std::span<const NodeId> cut_cop
       // A cut node whose crack has not opened is in tissue the blade is still cutting: the
       // cutter places it, on the blade, whose back point the handle's end touches.
       double crack_area = 0.0;
-      if (cut[i] && (lip_side(mesh, n, cut, body.normal(), &crack_area), !(crack_area > 0.0))) continue;
+      if (cut_[i] && (lip_side(mesh, n, cut_, body.normal(), &crack_area), !(crack_area > 0.0))) continue;
       h.handle = true;
     }
     if (!put_back(body, h, mesh)) continue;
-    tissue.set_fixed(n);
+    tissue.set_held(n);
+    tissue.set_external_force(n, Vec3::Zero());
     held_nodes_.push_back(h);
     ++stats_.pushes;
   }
-  // Each node's side for the next frame.
+  // The force on the body: what each held node presses on it, those just put back included. One
+  // the tissue pulls away (its load points out of the body) is let go and carries none.
+  force_.setZero();
+  for (std::size_t i = held_nodes_.size(); i-- > 0;) {
+    const Held& h = held_nodes_[i];
+    const NodeId one[1] = {h.node};
+    const Vec3 load = tissue.load_on_holder(one);
+    const Vec3& at = mesh.position(h.node);
+    const Vec3 out = h.handle ? body.handle_normal(at) : Vec3(h.side * body.normal());
+    if (!(load.dot(out) < 0.0)) {
+      let_go(i, mesh, tissue);
+      continue;
+    }
+    force_ += load;
+  }
+  // Each node's side for the next frame. Nearer the plane than kSideBand, a node over the flats
+  // keeps the side it had (the flats hold it there); elsewhere it has none.
   if (body.has_flats())
     for (std::uint32_t i = 0; i < x.size(); ++i) {
       if (!mesh.node_slot_alive(i)) continue;
-      const double d = body.local(x[i]).d;
-      // Nearer the plane than kSideBand a node keeps the side it had, or has none yet.
-      if (std::abs(d) >= kSideBand || std::isnan(side_of(i))) {
-        side_[i] = std::abs(d) >= kSideBand ? d : 0.0;
+      const ToolBody::Local l = body.local(x[i]);
+      if (std::abs(l.d) >= kSideBand || !body.over_flats(l) || std::isnan(side_of(i))) {
+        side_[i] = std::abs(l.d) >= kSideBand ? l.d : 0.0;
         side_generation_[i] = mesh.node_handle(i).generation;
       }
     }
-  held_.clear();
-  for (const Held& h : held_nodes_) held_.push_back(h.node);
+  list_held();
   stats_.max_held = std::max(stats_.max_held, held_nodes_.size());
   stats_.max_force = std::max(stats_.max_force, force_.norm());
   stats_.frames_in_contact += held_nodes_.empty() ? 0 : 1;

@@ -12,11 +12,13 @@
 //
 // Contact is a constraint, as the press's (sim/indentation.hpp, and why not a penalty there): a
 // node the body meets is put back on the body's surface, on the side it came from, and held there
-// by the tissue solve as a prescribed node. Held nodes slide with the body (frictionless): before
-// each frame's tissue steps, each is put back on the body where the body has moved through it, and
-// let go where the body has moved away from it. After the steps, a held node the tissue pulls away
-// from the body is let go; the others' load on their holder is the force on the body
-// (TissueModel::load_on_holder).
+// by the tissue solve as a prescribed node (TissueModel::set_held: not a boundary condition, which
+// the cutter's nodes would inherit and severed pieces would count as an anchor). Held nodes slide
+// with the body (frictionless): before each frame's tissue steps, each is put back on the body
+// where the body has moved through it, and let go where the body has moved away from it. After
+// the steps, the nodes the body has met are put back and held, a held node the tissue pulls away
+// from the body is let go, and the others' load on their holder is the force on the body
+// (TissueModel::load_on_holder; the edge's drag on a held node is left out).
 //
 // Which side of the flats a node belongs to: a copy of a cut node, its lip's (its crack faces face
 // the other lip, across the blade); any other, the side it was on at the end of the last frame once
@@ -43,7 +45,7 @@ namespace scalpel {
 struct ToolBodySize {
   double blade_width = 0.0;    // [m] edge to spine; 0: no flats
   double handle_radius = 0.0;  // [m] 0: no handle
-  double handle_length = 0.0;  // [m] from the blade's back point
+  double handle_length = 0.0;  // [m] from the blade's back point, at least twice the radius
   [[nodiscard]] bool any() const { return blade_width > 0.0 || handle_radius > 0.0; }
 };
 
@@ -67,12 +69,13 @@ class ToolBody {
   [[nodiscard]] bool over_flats(const Local& l) const;
   // Unit normal of the blade's plane.
   [[nodiscard]] const Vec3& normal() const { return n_; }
-  // The handle's surface point nearest x and its outward normal, when x is inside the handle.
+  // The handle's surface point nearest x and its outward normal, when x is inside the handle (or
+  // within `slack` [m] of it).
   struct Exit {
     Vec3 point = Vec3::Zero();
     Vec3 normal = Vec3::Zero();
   };
-  [[nodiscard]] std::optional<Exit> handle_exit(const Vec3& x) const;
+  [[nodiscard]] std::optional<Exit> handle_exit(const Vec3& x, double slack = 0.0) const;
   // The handle's outward normal at the surface point nearest x.
   [[nodiscard]] Vec3 handle_normal(const Vec3& x) const;
   // A box holding the handle and the flats [m].
@@ -115,10 +118,9 @@ class BodyContact {
   // body [N].
   // `cut_copies`: the copies of the cutter's cut nodes, whose side is their lip's.
   Vec3 settle(const BladePose& blade, std::span<const NodeId> cut_copies, TetMesh& mesh, TissueModel& tissue);
-  // Lets every held node go (the tissue is moved another way, or contact ends).
-  void release(const TetMesh& mesh, TissueModel& tissue);
 
   [[nodiscard]] const Vec3& force() const { return force_; }  // [N] as of the last settle()
+  // The nodes held as of the last follow() or settle() (the cutter may have removed some since).
   [[nodiscard]] const std::vector<NodeId>& held() const { return held_; }
   [[nodiscard]] const BodyContactStats& stats() const { return stats_; }
 
@@ -131,6 +133,7 @@ class BodyContact {
   // Puts a node held or met by the body back on it; false when the body no longer meets it.
   bool put_back(const ToolBody& body, Held& h, TetMesh& mesh) const;
   void let_go(std::size_t i, const TetMesh& mesh, TissueModel& tissue);
+  void list_held();
 
   ToolBodySize size_;
   std::vector<Held> held_nodes_;
@@ -139,6 +142,7 @@ class BodyContact {
   // a slot not seen yet.
   std::vector<double> side_;
   std::vector<std::uint32_t> side_generation_;  // the generation of the node each side is of
+  std::vector<std::uint8_t> cut_;               // by node slot: a copy of a cut node (scratch)
   Vec3 force_ = Vec3::Zero();
   BodyContactStats stats_;
 };

@@ -1,6 +1,7 @@
 #include <doctest/doctest.h>
 
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -117,6 +118,8 @@ namespace {
 // lands, however late the parent gets to it; without, it ends with the recording.
 [[noreturn]] void record_in_child(const std::vector<ToolSample>& source, const std::string& path,
                                   bool linger) {
+  // Gone with the test process, whatever becomes of the kill.
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
   MockDevice device(source);
   ForceChannel forces;
   forces.publish(contact_model());

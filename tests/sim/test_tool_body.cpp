@@ -127,6 +127,7 @@ TEST_CASE("a blade moved flat first inside its incision pushes the lip: no node 
   const auto run = [&](const std::string& tool, bool& crossed, double& push) {
     crossed = false;
     push = 0;
+    bool still = false;
     std::size_t generated = 0;  // the mesh's nodes before any cut
     Drive d(scenario(tool), Vec3(-0.0037, y0, 0.004), [&](const Simulation& sim) {
       const ToolBody body(sim.blade(sim.last_sample()), size);
@@ -139,11 +140,15 @@ TEST_CASE("a blade moved flat first inside its incision pushes the lip: no node 
         const double side = (m.position(n) - sim.blade(sim.last_sample()).back).dot(Vec3::UnitY());
         crossed = crossed || side * (m.rest(n).y() - y0) < -1e-12;
       }
-      if (sim.body_contact() != nullptr) push = std::min(push, sim.body_contact()->force().y());
+      // Held still against the lip, the lip pushes back at every frame: the most it does at the
+      // frame that pushes back least.
+      if (still && sim.body_contact() != nullptr) push = std::max(push, sim.body_contact()->force().y());
     });
     d.move_to(Vec3(-0.0037, y0, -0.0025), 0.3);  // presses, punctures, cuts in
     d.move_to(Vec3(0.0043, y0, -0.0025), 0.4);   // the incision
     d.move_to(Vec3(0.0043, y0 + 0.0015, -0.0025), 0.3);
+    push = -1e9;
+    still = true;
     d.move_to(Vec3(0.0043, y0 + 0.0015, -0.0025), 0.2);
     REQUIRE(d.sim.indentation()->punctures().size() == 1);
   };
@@ -163,11 +168,17 @@ TEST_CASE("a blade moved flat first inside its incision pushes the lip: no node 
 
 TEST_CASE("the handle pushes the skin it meets: no node inside it, and the hand feels the skin") {
   // A 4 mm blade driven in upright until its back point is 1.5 mm under the skin: the handle's
-  // rounded end meets the surface.
+  // rounded end meets the surface. Held there, then drawn out.
   const ToolBodySize size{.handle_radius = 0.003, .handle_length = 0.05};
-  const auto run = [&](const std::string& tool, double& deepest, double& force_z) {
-    deepest = 0;
-    force_z = 0;
+  struct Seen {
+    double deepest = 0;                             // [m] a node inside the handle, the deepest
+    double held_force_min = 1e9;                    // [N] up, the least while held still
+    std::size_t held_min = 1u << 30, held_max = 0;  // nodes the handle holds while held still
+    std::size_t fixed_at_start = 0, fixed_at_end = 0, held_at_end = 0;
+  };
+  const auto run = [&](const std::string& tool) {
+    Seen seen;
+    bool still = false;
     Drive d(scenario(tool), Vec3(0.0011, 0.0007, 0.006), [&](const Simulation& sim) {
       const ToolBody body(sim.blade(sim.last_sample()), size);
       // Cut nodes whose crack has not opened (one copy) are the cutter's: they ride on the blade,
@@ -178,25 +189,52 @@ TEST_CASE("the handle pushes the skin it meets: no node inside it, and the hand 
       for (const NodeId n : sim.mesh().nodes()) {
         const Vec3& x = sim.mesh().position(n);
         if (closed[n.index]) continue;
-        if (const auto exit = body.handle_exit(x)) deepest = std::max(deepest, (exit->point - x).norm());
+        if (const auto exit = body.handle_exit(x))
+          seen.deepest = std::max(seen.deepest, (exit->point - x).norm());
       }
-      if (sim.body_contact() != nullptr) force_z = std::max(force_z, sim.body_contact()->force().z());
+      if (still && sim.body_contact() != nullptr) {
+        seen.held_force_min = std::min(seen.held_force_min, sim.body_contact()->force().z());
+        seen.held_min = std::min(seen.held_min, sim.body_contact()->held().size());
+        seen.held_max = std::max(seen.held_max, sim.body_contact()->held().size());
+      }
     });
+    const auto count = [&](bool held) {
+      std::size_t k = 0;
+      for (const NodeId n : d.sim.mesh().nodes())
+        k += (held ? d.sim.tissue().held(n) : d.sim.tissue().fixed(n)) ? 1 : 0;
+      return k;
+    };
+    seen.fixed_at_start = count(false);
     d.move_to(Vec3(0.0011, 0.0007, -0.0055), 0.6);
+    d.move_to(Vec3(0.0011, 0.0007, -0.0055), 0.1);  // settling
+    still = true;
     d.move_to(Vec3(0.0011, 0.0007, -0.0055), 0.3);
+    still = false;
     REQUIRE(d.sim.indentation()->punctures().size() == 1);
+    d.move_to(Vec3(0.0011, 0.0007, 0.006), 0.5);  // drawn out
+    d.move_to(Vec3(0.0011, 0.0007, 0.006), 0.2);
+    seen.fixed_at_end = count(false);
+    seen.held_at_end = count(true);
+    return seen;
   };
-  double deepest = 0, force_z = 0;
   SUBCASE("with a handle") {
-    run("  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0]}\n  handle: {radius: 0.003, length: "
-        "0.05}",
-        deepest, force_z);
-    CHECK(deepest < 1e-6);
-    CHECK(force_z > 0.1);  // the skin pushes the handle up
+    const Seen seen =
+        run("  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0]}\n  handle: {radius: 0.003, "
+            "length: 0.05}");
+    CHECK(seen.deepest < 1e-6);
+    // Held still, the skin pushes the handle up at every frame, with the same nodes.
+    CHECK(seen.held_force_min > 0.1);
+    CHECK(seen.held_min > 0);
+    CHECK(seen.held_max - seen.held_min <= seen.held_max / 10);
+    // Drawn out, it holds nothing, and the cutter's new nodes did not inherit its hold.
+    CHECK(seen.held_at_end == 0);
+    CHECK(seen.fixed_at_end >= seen.fixed_at_start);
+    MESSAGE("held " << seen.held_min << "-" << seen.held_max << " nodes, force >= " << seen.held_force_min
+                    << " N; fixed nodes " << seen.fixed_at_start << " -> " << seen.fixed_at_end);
   }
   SUBCASE("without, the skin would be inside it") {
-    run("  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0]}", deepest, force_z);
-    CHECK(deepest > 5e-4);
+    const Seen seen = run("  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0]}");
+    CHECK(seen.deepest > 5e-4);
   }
 }
 
@@ -221,7 +259,7 @@ TEST_CASE("the blade's width and the handle are read from the scenario, with loc
   fails("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], width: 0.005}", "needs blade.edge");
   fails("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0], width: -1}", "0 <= value <= 0.05");
   fails("  handle: {radius: 0.004}", "length");
-  fails("  handle: {radius: 0.004, length: 0.001}", "radius <= value");
+  fails("  handle: {radius: 0.004, length: 0.006}", "2 radius <= value");
   fails("  handle: {radius: 0.004, length: 0.08, colour: red}", "colour");
 }
 
@@ -304,6 +342,10 @@ TEST_CASE(
       }
     }
     d.move_to(Vec3(d.s.position.x(), d.s.position.y(), 0.006), 0.3);
+    d.move_to(Vec3(d.s.position.x(), d.s.position.y(), 0.006), 0.1);
+    std::size_t still_held = 0;  // drawn out, the body holds nothing
+    for (const NodeId n : d.sim.mesh().nodes()) still_held += d.sim.tissue().held(n) ? 1 : 0;
+    CHECK(still_held == 0);
     CHECK(passed == 0);
     CHECK(inside == 0);
     CHECK(invalid.empty());
