@@ -822,3 +822,41 @@ TEST_CASE("a node held only by slivers rides with its neighbours instead of fall
     CHECK(free_apex > 1.0);
   }
 }
+
+TEST_CASE(
+    "a node held by a tool stays where it is put but is no boundary condition: new nodes do not inherit it") {
+  TetMesh m = make_box({.max = Vec3(0.01, 0.01, 0.01), .cells = {1, 1, 1}});
+  TissueModel model(m, {Material{}});
+  fix_nodes(m, model, [](const Vec3& x) { return x.z() < 1e-12; });
+  NodeId top_a, top_b;
+  for (const NodeId n : m.nodes()) {
+    if ((m.rest(n) - Vec3(0, 0, 0.01)).norm() < 1e-12) top_a = n;
+    if ((m.rest(n) - Vec3(0.01, 0.01, 0.01)).norm() < 1e-12) top_b = n;
+  }
+  REQUIRE(!tets_with(m, {top_a, top_b}).empty());
+  model.set_held(top_a);
+  model.set_held(top_b);
+  CHECK(model.held(top_a));
+  CHECK_FALSE(model.fixed(top_a));
+  CHECK(model.prescribed(top_a));
+  // Pressed down 1 mm and held there through a step under gravity: it does not move.
+  const Vec3 at = m.position(top_a) - Vec3(0, 0, 0.001);
+  m.set_position(top_a, at);
+  model.step(0.01);
+  CHECK(m.position(top_a) == at);
+  // The cutter's node between two held nodes is free; let go, the held ones are free again.
+  const Edit e = split_edge(m, top_a, top_b, 0.5);
+  e.notify(model);
+  CHECK_FALSE(model.prescribed(e.nodes[0]));
+  model.set_held(top_a, false);
+  CHECK_FALSE(model.prescribed(top_a));
+  model.step(0.01);
+  CHECK(m.position(top_a) != at);
+  // A fixed node held and let go stays fixed.
+  NodeId bottom;
+  for (const NodeId n : m.nodes())
+    if (model.fixed(n)) bottom = n;
+  model.set_held(bottom);
+  model.set_held(bottom, false);
+  CHECK(model.fixed(bottom));
+}
