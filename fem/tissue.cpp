@@ -133,11 +133,7 @@ void TissueModel::set_fixed(NodeId n, bool fix) {
   if (!mesh_.alive(n)) throw std::invalid_argument("tissue: set_fixed on a dead node");
   grow();
   fixed_[n.index] = fix ? 1 : 0;
-  prescribed_[n.index] = fixed_[n.index] | held_[n.index];
-  if (!dirty_[n.index]) {
-    dirty_[n.index] = 1;
-    dirty_list_.push_back(n.index);
-  }
+  prescription_changed(n.index);
 }
 
 bool TissueModel::fixed(NodeId n) const {
@@ -148,10 +144,15 @@ void TissueModel::set_held(NodeId n, bool hold) {
   if (!mesh_.alive(n)) throw std::invalid_argument("tissue: set_held on a dead node");
   grow();
   held_[n.index] = hold ? 1 : 0;
-  prescribed_[n.index] = fixed_[n.index] | held_[n.index];
-  if (!dirty_[n.index]) {
-    dirty_[n.index] = 1;
-    dirty_list_.push_back(n.index);
+  prescription_changed(n.index);
+}
+
+// The node's row changes with whether the solve keeps it in place.
+void TissueModel::prescription_changed(std::uint32_t i) {
+  prescribed_[i] = fixed_[i] | held_[i];
+  if (!dirty_[i]) {
+    dirty_[i] = 1;
+    dirty_list_.push_back(i);
   }
 }
 

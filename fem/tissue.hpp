@@ -214,6 +214,7 @@ class TissueModel {
 
   void grow();
   void mark_tet_nodes(std::uint32_t t);
+  void prescription_changed(std::uint32_t node);
   // The team of settings_.threads threads (made anew when that setting has changed).
   parallel::Team& team();
   void refresh();

@@ -6,42 +6,15 @@
 #include "sim/indentation.hpp"
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
+#include "tests/sim/press_patch.hpp"
 
 using namespace scalpel;
 
 namespace {
 
-// A skin patch 20 x 20 mm held at its base and rim; the blade presses with contact on. The
-// epidermis gives way at `puncture` [N].
+// The press patch (press_patch.hpp); the epidermis gives way at `puncture` [N].
 Scenario scenario(double puncture, const std::string& blade) {
-  const std::string text = R"(
-name: press
-mesh:
-  generator: slab
-  size: [0.020, 0.020]
-  cells: [5, 5]
-  layers:
-    - {name: epidermis, thickness: 0.001, cells: 1}
-    - {name: dermis, thickness: 0.002, cells: 1}
-    - {name: fat, thickness: 0.004, cells: 1}
-materials:
-  epidermis:
-    {young: 1.0e6, poisson: 0.45, density: 1100, damping: {mass: 0.5, stiffness: 0.002}, puncture_force: )" +
-                           std::to_string(puncture) + R"(}
-  dermis: {young: 1.0e5, poisson: 0.45, density: 1100, damping: {mass: 0.5, stiffness: 0.002}}
-  fat: {young: 1.0e4, poisson: 0.45, density: 920, damping: {mass: 0.5, stiffness: 0.002}}
-tissue: {rate: 60, solver: {tolerance: 1.0e-3, max_iterations: 200}, gravity: [0, 0, 0]}
-fixed:
-  - {side: bottom}
-  - {side: x_min}
-  - {side: x_max}
-  - {side: y_min}
-  - {side: y_max}
-tool:
-  contact: indent
-  cutting_resistance: 0
-  blade: )" + blade + "\n";
-  return parse_scenario(text, "press.yaml", ".");
+  return test::press_patch(puncture, "  blade: " + blade);
 }
 
 // Tip first, the sharp edge facing +x.

@@ -11,6 +11,7 @@
 #include "sim/scenario.hpp"
 #include "sim/simulation.hpp"
 #include "sim/tool_body.hpp"
+#include "tests/sim/press_patch.hpp"
 
 using namespace scalpel;
 
@@ -21,35 +22,9 @@ BladePose upright() {
   return {Vec3(0, 0, 0.006), Vec3::Zero(), Vec3::UnitX()};
 }
 
-// A skin patch 20 x 20 mm, 7 mm thick, held at its base and rim, without gravity; the blade
-// presses before it cuts and gives way at 0.3 N. `tool` is the scenario's tool map without contact.
+// The press patch (press_patch.hpp), giving way at 0.3 N; `tool`: the tool's blade and handle.
 Scenario scenario(const std::string& tool) {
-  const std::string text = R"(
-name: body
-mesh:
-  generator: slab
-  size: [0.020, 0.020]
-  cells: [5, 5]
-  layers:
-    - {name: epidermis, thickness: 0.001, cells: 1}
-    - {name: dermis, thickness: 0.002, cells: 1}
-    - {name: fat, thickness: 0.004, cells: 1}
-materials:
-  epidermis: {young: 1.0e6, poisson: 0.45, density: 1100, damping: {mass: 0.5, stiffness: 0.002}, puncture_force: 0.3}
-  dermis: {young: 1.0e5, poisson: 0.45, density: 1100, damping: {mass: 0.5, stiffness: 0.002}}
-  fat: {young: 1.0e4, poisson: 0.45, density: 920, damping: {mass: 0.5, stiffness: 0.002}}
-tissue: {rate: 60, solver: {tolerance: 1.0e-3, max_iterations: 200}, gravity: [0, 0, 0]}
-fixed:
-  - {side: bottom}
-  - {side: x_min}
-  - {side: x_max}
-  - {side: y_min}
-  - {side: y_max}
-tool:
-  contact: indent
-  cutting_resistance: 0
-)" + tool + "\n";
-  return parse_scenario(text, "body.yaml", ".");
+  return test::press_patch(0.3, tool);
 }
 
 // Drives the tool in straight lines at 1 kHz, a frame every 16 samples as the replay does, and
@@ -253,7 +228,7 @@ TEST_CASE("the blade's width and the handle are read from the scenario, with loc
     } catch (const InputError& e) {
       CAPTURE(e.what());
       CHECK(std::string(e.what()).find(what) != std::string::npos);
-      CHECK(std::string(e.what()).find("body.yaml:") != std::string::npos);
+      CHECK(std::string(e.what()).find("patch.yaml:") != std::string::npos);
     }
   };
   fails("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], width: 0.005}", "needs blade.edge");
