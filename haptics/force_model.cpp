@@ -29,12 +29,7 @@ Eigen::Vector3d ForceRenderer::render(const Eigen::Vector3d& x, const ForceModel
     f_.setZero();
     return f_;
   }
-  const ForceModel& m = *model;
-  Eigen::Vector3d f = m.coupling_stiffness * (m.constrained_position - x) +
-                      m.coupling_damping * (m.constrained_velocity - v_);
-  if (m.contact) f += m.contact_force(x) * m.contact_normal;
-  f += m.body_force_at(x);
-  if (m.cutting_resistance > 0.0) f -= m.cutting_resistance * v_ / std::max(v_.norm(), kCutSpeedFloor);
+  Eigen::Vector3d f = model->environment_force(x, v_);
   // The passivity controller: a damper that dissipates the energy the environment has generated,
   // over the next cycle at the velocity of the last one (not the filtered one: its lag would turn
   // the damper into a source in a fast oscillation). Below the speed floor the damper would need an

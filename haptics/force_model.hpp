@@ -37,6 +37,10 @@ namespace scalpel {
 
 // Plain data (fixed-size Eigen vectors, no pointers): copied whole through the channel.
 struct ForceModel {
+  // v_eps [m/s]: below it the cutting resistance fades with the speed instead of flipping with the
+  // velocity's noise.
+  static constexpr double kCutSpeedFloor = 0.01;
+
   std::uint64_t sequence = 0;  // increases with every publication; 0 before the first
   double t = 0.0;              // [s] simulation time it was computed for
 
@@ -59,6 +63,17 @@ struct ForceModel {
   Eigen::Vector3d body_normal = Eigen::Vector3d::UnitZ();
   double body_stiffness = 0.0;
   Eigen::Vector3d body_position = Eigen::Vector3d::Zero();
+
+  // [N] The model's force at tool position x moving at v, before the device's limits and the
+  // passivity controller: the sum above.
+  [[nodiscard]] Eigen::Vector3d environment_force(const Eigen::Vector3d& x, const Eigen::Vector3d& v) const {
+    Eigen::Vector3d f =
+        coupling_stiffness * (constrained_position - x) + coupling_damping * (constrained_velocity - v);
+    if (contact) f += contact_force(x) * contact_normal;
+    f += body_force_at(x);
+    if (cutting_resistance > 0.0) f -= cutting_resistance * v / std::max(v.norm(), kCutSpeedFloor);
+    return f;
+  }
 
   // [N] The body's force at tool position x: max(0, F_b + k_b n_b.(x_b - x)) n_b.
   [[nodiscard]] Eigen::Vector3d body_force_at(const Eigen::Vector3d& x) const {
@@ -102,7 +117,7 @@ class ForceRenderer {
   [[nodiscard]] std::uint64_t damped_cycles() const { return damped_cycles_; }
 
   static constexpr double kVelocityCutoff = 50.0;  // [Hz] first-order low-pass on the velocity
-  static constexpr double kCutSpeedFloor = 0.01;   // v_eps [m/s]
+  static constexpr double kCutSpeedFloor = ForceModel::kCutSpeedFloor;  // v_eps [m/s]
   // [N s/m] The passivity controller's damper at most: 2 m / T for the lightest styli (m about
   // 0.02-0.05 kg at the tip, T = 1 ms) is 40-100 N s/m, and a held damper must stay below it.
   static constexpr double kMaxPassivityDamping = 20.0;

@@ -78,7 +78,9 @@ json body_json(const BodyContact& body, const Simulation& sim) {
   json error = percentiles(sim.body_model_errors(), 1.0);
   error["frames"] = sim.body_model_errors().size();
   return {{"blade_width", sim.body_size().blade_width},
-          {"handle", {{"radius", sim.body_size().handle_radius}, {"length", sim.body_size().handle_length}}},
+          {"handle", sim.body_size().handle_radius > 0.0 ? json{{"radius", sim.body_size().handle_radius},
+                                                                {"length", sim.body_size().handle_length}}
+                                                         : json(nullptr)},
           {"frames", body.stats().frames_in_contact},
           {"pushes", body.stats().pushes},
           {"max_held_nodes", body.stats().max_held},

@@ -301,16 +301,21 @@ void Simulation::on_sample(const ToolSample& s) {
           material_depth = surface_->nearest(mesh_.rest_positions(), *rest_tip, up).depth;
         }
       }
-    // The hand pushes against the tissue's resistance to the blade (what a device renders, before
-    // its own force limit); the last frame's contact sets it.
-    scorer_->on_sample(s.t, pose, stats, hit, rest_tip, material_depth,
-                       scenario_.tool.cutting_resistance * contact_.length);
+    scorer_->on_sample(s.t, pose, stats, hit, rest_tip, material_depth, hand_force(s));
   } else {
     // Pressing: the blade is on the tissue, not in it.
-    scorer_->on_sample(s.t, pose, stats, std::nullopt, std::nullopt, std::nullopt, 0.0);
+    scorer_->on_sample(s.t, pose, stats, std::nullopt, std::nullopt, std::nullopt, hand_force(s));
   }
   last_ = s;
   ++samples_;
+}
+
+// What the hand pushes against at this sample: the force the last frame's model gives where the
+// tool is, moving as it moved since the last sample: what a device renders, before its own limits.
+double Simulation::hand_force(const ToolSample& s) const {
+  if (published_.sequence == 0 || samples_ == 0 || !(s.t > last_.t)) return 0.0;
+  const Vec3 v = (s.position - last_.position) / (s.t - last_.t);
+  return published_.environment_force(s.position, v).norm();
 }
 
 // Topology changes go to the tissue model. Elements around a mid node that slid with the blade
@@ -608,6 +613,7 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     press_model_.reset();
   }
   forces.publish(model);
+  published_ = model;
   const Vec3 body_force = body_ ? body_->force() : Vec3::Zero();  // on the tool
   // On the tissue: the edge's push or the press (the tissue's load on the blade, reversed), and the
   // body's.

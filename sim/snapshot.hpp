@@ -48,8 +48,9 @@ struct FrameSnapshot {
   // The blade where the last tool sample put it [m]; none before the first sample.
   bool has_blade = false;
   Vec3 blade_back = Vec3::Zero(), blade_tip = Vec3::Zero();
-  // From the edge to the spine across the blade [m], zero without flats (sim/tool_body.hpp); the
-  // handle's radius and length [m], zero when the scenario gives none.
+  // From the edge to the spine across the blade at its back point [m] (the spine meets the edge
+  // at the tip), zero without flats (sim/tool_body.hpp); the handle's radius and length [m], zero
+  // when the scenario gives none.
   Vec3 blade_spine = Vec3::Zero();
   double handle_radius = 0.0, handle_length = 0.0;
 

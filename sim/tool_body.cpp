@@ -58,7 +58,9 @@ Vec3 ToolBody::world(const Local& l) const {
 }
 
 bool ToolBody::over_flats(const Local& l) const {
-  return flats_ && l.s >= 0.0 && l.s <= length_ && l.w >= 0.0 && l.w <= size_.blade_width;
+  // The spine runs from `width` behind the edge at the back point to the tip.
+  return flats_ && l.s >= 0.0 && l.s <= length_ && l.w >= 0.0 &&
+         l.w <= size_.blade_width * (1.0 - l.s / length_);
 }
 
 ToolBody::Exit ToolBody::handle_nearest(const Vec3& x, double& distance) const {
@@ -97,10 +99,7 @@ void ToolBody::bounds(Vec3& lo, Vec3& hi) const {
   };
   const Vec3 tip = back_ + length_ * axis_;
   add(tip, 0.0);
-  if (flats_) {
-    add(back_ + size_.blade_width * spine_, 0.0);
-    add(tip + size_.blade_width * spine_, 0.0);
-  }
+  if (flats_) add(back_ + size_.blade_width * spine_, 0.0);
   if (has_handle()) add(back_ - (size_.handle_length - size_.handle_radius) * axis_, size_.handle_radius);
 }
 

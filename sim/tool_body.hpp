@@ -3,10 +3,11 @@
 //
 // The cutter's blade is its edge: the segment from the back point to the tip, whose sweep is the
 // cut (§3). The body adds what lies behind the edge and above the blade:
-//   - the flats: the blade's plane, from the edge back to the spine (`width` against the direction
-//     the edge faces), between the back point and the tip. It has no thickness, as the cut it
-//     trails in has none: a node may lie on it (the cutter puts the cut nodes there) but never
-//     passes through it;
+//   - the flats: a triangle in the blade's plane between the edge and the spine, which runs from
+//     `width` behind the edge at the back point (against the direction the edge faces) to the tip,
+//     where a scalpel blade's edge and spine meet. Narrowing to the tip, it stays above the tip's
+//     path, in tissue the edge has cut. It has no thickness, as the cut it trails in has none: a
+//     node may lie on it (the cutter puts the cut nodes there) but never passes through it;
 //   - the handle: a capsule of `radius` along the blade's axis, from the back point away from the
 //     tip over `length`, its rounded end at the back point. No node lies inside it.
 //
@@ -43,7 +44,7 @@
 namespace scalpel {
 
 struct ToolBodySize {
-  double blade_width = 0.0;    // [m] edge to spine; 0: no flats
+  double blade_width = 0.0;    // [m] edge to spine at the back point; 0: no flats
   double handle_radius = 0.0;  // [m] 0: no handle
   double handle_length = 0.0;  // [m] from the blade's back point, at least twice the radius
   [[nodiscard]] bool any() const { return blade_width > 0.0 || handle_radius > 0.0; }
@@ -65,7 +66,8 @@ class ToolBody {
   [[nodiscard]] bool has_handle() const { return size_.handle_radius > 0.0; }
   [[nodiscard]] Local local(const Vec3& x) const;
   [[nodiscard]] Vec3 world(const Local& l) const;
-  // Within the flats' outline (s in [0, length], w in [0, width]), at any distance from the plane.
+  // Within the flats' outline (s in [0, length], w in [0, width (1 - s / length)]), at any
+  // distance from the plane.
   [[nodiscard]] bool over_flats(const Local& l) const;
   // Unit normal of the blade's plane.
   [[nodiscard]] const Vec3& normal() const { return n_; }

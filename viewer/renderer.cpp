@@ -263,12 +263,12 @@ void Renderer::build_overlays(const FrameSnapshot& s, const RenderOptions& o) {
     };
     prism(s.blade_back, s.blade_tip, kBladeRadius, Palette::kBlade);
     if (!s.blade_spine.isZero()) {
-      // The flats, from the edge back to the spine: seen from either side.
-      const Vec3 a = s.blade_back, b = s.blade_tip, c = s.blade_tip + s.blade_spine,
-                 d = s.blade_back + s.blade_spine;
-      const float shade = 0.6f + 0.4f * static_cast<float>(std::abs((b - a).cross(d - a).normalized().z()));
-      quad(a, b, c, d, rgba(Palette::kBlade, 1.0f, shade));
-      quad(a, d, c, b, rgba(Palette::kBlade, 1.0f, shade));
+      // The flats, from the edge back to the spine, which meets the edge at the tip: seen from
+      // either side.
+      const Vec3 a = s.blade_back, b = s.blade_tip, c = s.blade_back + s.blade_spine;
+      const float shade = 0.6f + 0.4f * static_cast<float>(std::abs((b - a).cross(c - a).normalized().z()));
+      for (const Vec3* p : {&a, &b, &c, &a, &c, &b})
+        triangles_.push_back({to_float(*p), rgba(Palette::kBlade, 1.0f, shade)});
     }
     const Vec3 back = (s.blade_back - s.blade_tip).normalized();
     // The scenario's handle where it gives one (its contact shape, sim/tool_body.hpp), drawn no

@@ -73,8 +73,13 @@ TEST_CASE("the tool's body: the blade's frame, the flats' outline and the handle
   CHECK(std::abs(l.d) == doctest::Approx(0.0005));
   CHECK((body.world(l) - Vec3(-0.001, 0.0005, 0.002)).norm() < 1e-15);
   CHECK(body.over_flats(l));
-  CHECK_FALSE(body.over_flats(body.local(Vec3(0.0005, 0, 0.002))));    // ahead of the edge
-  CHECK_FALSE(body.over_flats(body.local(Vec3(-0.0045, 0, 0.002))));   // behind the spine
+  CHECK_FALSE(body.over_flats(body.local(Vec3(0.0005, 0, 0.002))));   // ahead of the edge
+  CHECK_FALSE(body.over_flats(body.local(Vec3(-0.0045, 0, 0.002))));  // behind the spine
+  // The spine meets the edge at the tip: 4 mm behind the edge at the back point, 1 mm at 1.5 mm
+  // from the tip.
+  CHECK(body.over_flats(body.local(Vec3(-0.0039, 0, 0.0059))));
+  CHECK(body.over_flats(body.local(Vec3(-0.00099, 0, 0.0015))));
+  CHECK_FALSE(body.over_flats(body.local(Vec3(-0.00101, 0, 0.0015))));
   CHECK_FALSE(body.over_flats(body.local(Vec3(-0.001, 0, -0.0005))));  // beyond the tip
   // The handle: a capsule along the blade's axis above the back point, its rounded end there.
   CHECK_FALSE(body.handle_exit(Vec3(0, 0, 0.0055)));  // on the blade below the back point
@@ -98,7 +103,7 @@ TEST_CASE("a blade moved flat first inside its incision pushes the lip: no node 
   // across the grid's line y = 2 mm, and held. Each node of the generated mesh belongs to the side
   // of y0 it rests on; over the flats it must still be on that side of the blade, or on them.
   const double y0 = 0.0012;
-  const ToolBodySize size{.blade_width = 0.004};
+  const ToolBodySize size{.blade_width = 0.012};
   const auto run = [&](const std::string& tool, bool& crossed, double& push) {
     crossed = false;
     push = 0;
@@ -130,7 +135,7 @@ TEST_CASE("a blade moved flat first inside its incision pushes the lip: no node 
   bool crossed = false;
   double push = 0;
   SUBCASE("with flats") {
-    run("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.004}", crossed, push);
+    run("  blade: {back: [0, 0, 0.006], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.012}", crossed, push);
     CHECK_FALSE(crossed);
     // The lip pushes back against the blade's motion, and the hand feels it.
     CHECK(push < -0.05);
@@ -248,9 +253,9 @@ TEST_CASE(
   // flats and 50 µm or more off their plane at the frame before is on their other side (it
   // passed through them); no node inside the handle but the cutter's on the blade (cut nodes
   // whose crack has not opened).
-  const ToolBodySize size{.blade_width = 0.003, .handle_radius = 0.0025, .handle_length = 0.05};
+  const ToolBodySize size{.blade_width = 0.006, .handle_radius = 0.0025, .handle_length = 0.05};
   const Scenario sc = scenario(
-      "  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.003}\n"
+      "  blade: {back: [0, 0, 0.004], tip: [0, 0, 0], edge: [1, 0, 0], width: 0.006}\n"
       "  handle: {radius: 0.0025, length: 0.05}");
   std::mt19937_64 rng(0xb0d7);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -298,7 +303,7 @@ TEST_CASE(
     d.s.orientation = lean;
     d.move_to(Vec3(d.s.position.x(), d.s.position.y(), -0.002), 0.4);
     for (int k = 0; k < 8; ++k) {
-      const Vec3 step(0.0015 * unit(rng), 0.0008 * unit(rng), 0.0005 * unit(rng));
+      const Vec3 step(0.0015 * unit(rng), 0.0015 * unit(rng), 0.0005 * unit(rng));
       Vec3 to = d.s.position + step;
       to.z() = std::clamp(to.z(), -0.0045, -0.0005);
       to.x() = std::clamp(to.x(), -0.006, 0.006);
