@@ -582,7 +582,6 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
     for (const auto& c : cutter_->cut_node_copies())
       copies.insert(copies.end(), c.copies.begin(), c.copies.end());
     body_->settle(blade(last_), copies, mesh_, *tissue_);
-    update_body_model();
   }
   // What the tissue's motion carried into the blade's edge is cut (CutEngine::follow_tissue); a
   // blade that has not cut in (contact) cuts nothing the tissue brings to it.
@@ -600,18 +599,8 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
   model.t = t;
   model.constrained_position = last_.position;
   model.cutting_resistance = scenario_.tool.cutting_resistance * contact_.length;
-  if (body_model_) {
-    model.body_force = body_model_->body_force;
-    model.body_normal = body_model_->body_normal;
-    model.body_stiffness = body_model_->body_stiffness;
-    model.body_position = body_model_->body_position;
-  }
-  if (indentation_ && indentation_->phase() == Indentation::Phase::Pressing) {
-    set_contact_model(model);
-    press_model_ = model;
-  } else {
-    press_model_.reset();
-  }
+  if (body_ && samples_ > 0) set_body_model(model);
+  if (indentation_ && indentation_->phase() == Indentation::Phase::Pressing) set_contact_model(model);
   forces.publish(model);
   published_ = model;
   const Vec3 body_force = body_ ? body_->force() : Vec3::Zero();  // on the tool
@@ -624,32 +613,28 @@ void Simulation::end_frame(double t, ForceChannel& forces) {
 // The flats' and the handle's force as the hand feels it until the next frame (ForceModel): the
 // solved force along its own direction, growing by a stiffness measured between the last two
 // frames in contact: the change of the force over the tool's motion against it, where the tool
-// moved more than kBodyStiffnessTravel across the force.
-void Simulation::update_body_model() {
+// moved more than kBodyStiffnessTravel across the force. published_ is the last frame's model.
+void Simulation::set_body_model(ForceModel& m) {
   const DeviceMapping& map = scenario_.device.mapping;
   const Vec3 f = map.rotation.conjugate() * body_->force();  // device axes
   const Vec3& x = last_.position;
+  const ForceModel& last = published_;
+  const bool had = last.body_force > 0.0;
   // The model the hand felt since the last frame, where the tool is now, against the solve.
-  if (body_model_) body_model_errors_.push_back((body_model_->body_force_at(x) - f).norm());
-  if (!(f.norm() > 0.0)) {
-    body_model_.reset();
-    return;
-  }
-  ForceModel m;
+  if (had) body_model_errors_.push_back((last.body_force_at(x) - f).norm());
+  if (!(f.norm() > 0.0)) return;
   m.body_force = f.norm();
   m.body_normal = f / f.norm();
   m.body_position = x;
-  if (body_model_) {
-    m.body_stiffness = body_model_->body_stiffness;
+  if (had) {
+    m.body_stiffness = last.body_stiffness;
     // The tool's motion against the force [device m], and the force's change along it.
-    const double into = m.body_normal.dot(body_model_->body_position - x);
+    const double into = m.body_normal.dot(last.body_position - x);
     if (std::abs(into) * map.scale > kBodyStiffnessTravel) {
-      const double grew =
-          m.body_force - body_model_->body_force * body_model_->body_normal.dot(m.body_normal);
+      const double grew = m.body_force - last.body_force * last.body_normal.dot(m.body_normal);
       m.body_stiffness = std::clamp(grew / into, 0.0, kMaxBodyStiffness * map.scale);
     }
   }
-  body_model_ = m;
 }
 
 void Simulation::settle_press(double t) {
@@ -657,8 +642,8 @@ void Simulation::settle_press(double t) {
   indentation_->settle(t, pose, *tissue_);
   // The local model published at the last frame, evaluated where the tool is now, against the
   // force the full solve gives here: the error the hand felt between the frames.
-  if (press_model_ && indentation_->phase() != Indentation::Phase::Free) {
-    const double predicted = press_model_->contact_force(last_.position);
+  if (published_.contact && indentation_->phase() != Indentation::Phase::Free) {
+    const double predicted = published_.contact_force(last_.position);
     press_model_errors_.push_back(std::abs(predicted - indentation_->normal_force()));
   }
 }

@@ -225,7 +225,7 @@ class Simulation {
   // With contact, at the end of a frame spent pressing: the press's force, puncture or lift-off.
   void settle_press(double t);
   void set_contact_model(ForceModel& model) const;
-  void update_body_model();
+  void set_body_model(ForceModel& model);
   [[nodiscard]] double hand_force(const ToolSample& s) const;
   // The body's stiffness is measured over at least this much of the tool's motion across its force
   // [m], and at most this stiff [N/m] (a sharp contact on skin; the device's force limit bounds
@@ -272,10 +272,8 @@ class Simulation {
   std::uint64_t force_sequence_ = 0;
   std::unique_ptr<Indentation> indentation_;
   std::unique_ptr<BodyContact> body_;
-  ForceModel published_;                  // at the last frame
-  std::optional<ForceModel> body_model_;  // the body's part of the last frame's force model
+  ForceModel published_;  // at the last frame (the press's and the body's models among it)
   std::vector<double> body_model_errors_;
-  std::optional<ForceModel> press_model_;  // published at the last frame, while pressing
   std::vector<double> press_model_errors_;
 };
 

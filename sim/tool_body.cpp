@@ -126,11 +126,6 @@ void BodyContact::let_go(std::size_t i, const TetMesh& mesh, TissueModel& tissue
   held_nodes_.erase(held_nodes_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 
-void BodyContact::list_held() {
-  held_.clear();
-  for (const Held& h : held_nodes_) held_.push_back(h.node);
-}
-
 void BodyContact::follow(const BladePose& blade, TetMesh& mesh, TissueModel& tissue) {
   const ToolBody body(blade, size_);
   for (std::size_t i = held_nodes_.size(); i-- > 0;) {
@@ -143,7 +138,6 @@ void BodyContact::follow(const BladePose& blade, TetMesh& mesh, TissueModel& tis
     // not part of what the node presses on the body.
     tissue.set_external_force(h.node, Vec3::Zero());
   }
-  list_held();
 }
 
 Vec3 BodyContact::settle(const BladePose& blade, std::span<const NodeId> cut_copies, TetMesh& mesh,
@@ -230,7 +224,6 @@ Vec3 BodyContact::settle(const BladePose& blade, std::span<const NodeId> cut_cop
         side_generation_[i] = mesh.node_handle(i).generation;
       }
     }
-  list_held();
   stats_.max_held = std::max(stats_.max_held, held_nodes_.size());
   stats_.max_force = std::max(stats_.max_force, force_.norm());
   stats_.frames_in_contact += held_nodes_.empty() ? 0 : 1;

@@ -122,8 +122,8 @@ class BodyContact {
   Vec3 settle(const BladePose& blade, std::span<const NodeId> cut_copies, TetMesh& mesh, TissueModel& tissue);
 
   [[nodiscard]] const Vec3& force() const { return force_; }  // [N] as of the last settle()
-  // The nodes held as of the last follow() or settle() (the cutter may have removed some since).
-  [[nodiscard]] const std::vector<NodeId>& held() const { return held_; }
+  // How many nodes the body holds, as of the last follow() or settle().
+  [[nodiscard]] std::size_t held_count() const { return held_nodes_.size(); }
   [[nodiscard]] const BodyContactStats& stats() const { return stats_; }
 
  private:
@@ -135,11 +135,9 @@ class BodyContact {
   // Puts a node held or met by the body back on it; false when the body no longer meets it.
   bool put_back(const ToolBody& body, Held& h, TetMesh& mesh) const;
   void let_go(std::size_t i, const TetMesh& mesh, TissueModel& tissue);
-  void list_held();
 
   ToolBodySize size_;
   std::vector<Held> held_nodes_;
-  std::vector<NodeId> held_;  // the same nodes, for callers
   // Each node slot's signed distance from the blade's plane at the end of the last frame; NaN for
   // a slot not seen yet.
   std::vector<double> side_;

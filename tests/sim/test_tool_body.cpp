@@ -174,8 +174,8 @@ TEST_CASE("the handle pushes the skin it meets: no node inside it, and the hand 
       }
       if (still && sim.body_contact() != nullptr) {
         seen.held_force_min = std::min(seen.held_force_min, sim.body_contact()->force().z());
-        seen.held_min = std::min(seen.held_min, sim.body_contact()->held().size());
-        seen.held_max = std::max(seen.held_max, sim.body_contact()->held().size());
+        seen.held_min = std::min(seen.held_min, sim.body_contact()->held_count());
+        seen.held_max = std::max(seen.held_max, sim.body_contact()->held_count());
       }
     });
     const auto count = [&](bool held) {
