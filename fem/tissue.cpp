@@ -3,6 +3,7 @@
 #include "fem/parallel.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -432,6 +433,10 @@ StepStats TissueModel::advance(double dt, int depth) {
     out.local_iterations += sub.local_iterations;
     out.preconditioner_built = out.preconditioner_built || sub.preconditioner_built;
     out.substeps += sub.substeps;
+    out.seconds.elements += sub.seconds.elements;
+    out.seconds.assembly += sub.seconds.assembly;
+    out.seconds.local += sub.seconds.local;
+    out.seconds.solve += sub.seconds.solve;
     out.residual = std::max(out.residual, sub.residual);
     out.kinetic_energy = sub.kinetic_energy;
     if (sub.status != StepStatus::Converged) {
@@ -465,7 +470,15 @@ StepStats TissueModel::solve_step(double dt, bool last) {
   const std::size_t nn = rows_.size();
   parallel::Team& team = this->team();
 
+  using clock = std::chrono::steady_clock;
+  auto stage_start = clock::now();
+  const auto stage_end = [&](double& seconds) {
+    const auto now = clock::now();
+    seconds += std::chrono::duration<double>(now - stage_start).count();
+    stage_start = now;
+  };
   st.strain_limited = evaluate_elements(st.elastic_energy);
+  stage_end(st.seconds.elements);
   if (!std::isfinite(st.elastic_energy))
     return fail("non-finite elastic energy (NaN or inf in the positions)");
   assemble(dt);
@@ -476,10 +489,12 @@ StepStats TissueModel::solve_step(double dt, bool last) {
   st.initial_residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
   const double target = settings_.tolerance * b_norm;
   const bool local = plan.region && std::sqrt(rr) > target;
+  stage_end(st.seconds.assembly);
   update_coarse_and_solve_locally(plan, local, target, st);
   coarse_has_changes_ = !changed_.empty();  // cleared with changed_ once a solve is applied
   born_.clear();
   if (local) rr = parallel::reduce(team, nn, partial_, [&](std::size_t i) { return r_[i].squaredNorm(); });
+  stage_end(st.seconds.local);
   if (!std::isfinite(rr)) return fail("non-finite residual after the local solve");
   conjugate_gradients(plan, target, rr, st);
   st.residual = b_norm > 0 ? std::sqrt(rr) / b_norm : std::sqrt(rr);
@@ -499,6 +514,7 @@ StepStats TissueModel::solve_step(double dt, bool last) {
       st.message = s.str();
       st.kinetic_energy = kinetic_energy();
     }
+    stage_end(st.seconds.solve);
     last_ = st;
     return st;
   }
@@ -513,6 +529,7 @@ StepStats TissueModel::solve_step(double dt, bool last) {
   done_with_changes();
   apply_velocities(dt);
   st.kinetic_energy = kinetic_energy();
+  stage_end(st.seconds.solve);
   last_ = st;
   return st;
 }

@@ -153,6 +153,14 @@ struct StepStats {
   std::size_t aggregates_split = 0;   // coarse aggregates added by splitting those the cut severed
   int substeps = 1;                   // steps applied: more than 1 after a solve stopped at the cap
   std::string message;                // why, when status != Converged
+  // Wall time of the step's stages [s], summed over substeps (where a step's time goes; not part
+  // of any result, which stays bit-identical whatever these read).
+  struct Seconds {
+    double elements = 0;  // evaluate_elements: rotations, strains, stresses, forces
+    double assembly = 0;  // the matrix, the right-hand side and the warm start
+    double local = 0;     // the coarse update and the local solve after a topology change
+    double solve = 0;     // conjugate gradients and the velocities applied
+  } seconds;
 };
 
 class TissueModel {

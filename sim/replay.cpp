@@ -562,6 +562,16 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
   std::vector<double> after_cut, without_cut;
   for (std::size_t k = 0; k < sim.tissue_step_seconds().size(); ++k)
     (sim.tissue_step_after_cut()[k] ? after_cut : without_cut).push_back(sim.tissue_step_seconds()[k]);
+  // Where a tissue step's time goes (StepStats::seconds).
+  json stages;
+  for (const auto& [name, field] :
+       {std::pair{"elements", &StepStats::Seconds::elements},
+        std::pair{"assembly", &StepStats::Seconds::assembly}, std::pair{"local", &StepStats::Seconds::local},
+        std::pair{"solve", &StepStats::Seconds::solve}}) {
+    std::vector<double> seconds;
+    for (const StepStats& st : sim.tissue_steps()) seconds.push_back(st.seconds.*field);
+    stages[name] = percentiles(seconds, 1e3);
+  }
   json run;
   // The program's version and build belong here, not in report.json: a report is the same from
   // build to build, so CI can compare it with a stored hash.
@@ -578,6 +588,7 @@ ReplayResult replay(const Scenario& scenario, const std::filesystem::path& log_p
       {"tissue_step_ms", percentiles(sim.tissue_step_seconds(), 1e3)},
       {"tissue_step_after_cut_ms", percentiles(after_cut, 1e3)},
       {"tissue_step_without_cut_ms", percentiles(without_cut, 1e3)},
+      {"tissue_stage_ms", stages},
       {"frame_ms", percentiles(frame_seconds, 1e3)},
       {"total_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count()}};
 
