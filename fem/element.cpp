@@ -83,6 +83,48 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) 
   }
 }
 
+namespace {
+
+// A symmetric 3x3 matrix is positive definite (Sylvester's criterion).
+bool positive_definite(const Mat3& m) {
+  return m(0, 0) > 0 && m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0) > 0 && m.determinant() > 0;
+}
+
+// The element's stress, force, energy and twist modes where no principal strain and not the volumetric
+// strain reach the strain limit, every pair of principal stresses sums to more than zero and every
+// pair of principal stretches to more than kTwistStretchFloor: then nothing is clamped, and the twist
+// matrix R (V/2) T U^-1 R^T, with T = tr(sigma) I - sigma and U = tr(S) I - S, has the eigenvalues
+// and eigenvectors the general case gives it (sigma and S = I + eps share their eigenvectors; T's
+// eigenvalues are sigma_i + sigma_j, U's s_i + s_j), with no eigen-decomposition. False, and
+// nothing written, where a condition fails.
+bool evaluate_unclamped(const TetRest& rest, const Mat3& r, const Mat3& eps, CorotationalState& out) {
+  const double tr = eps.trace();
+  if (!(std::abs(tr) < kStrainLimit)) return false;
+  if (!positive_definite(Mat3::Identity() * kStrainLimit - eps) ||
+      !positive_definite(Mat3::Identity() * kStrainLimit + eps))
+    return false;
+  Mat3 sigma = 2.0 * rest.mu * eps;
+  sigma.diagonal().array() += rest.lambda * tr;
+  Mat3 t = -sigma;
+  t.diagonal().array() += sigma.trace();
+  Mat3 u = -eps;
+  u.diagonal().array() += 2.0 + tr;  // tr(S) I - S with S = I + eps
+  Mat3 u_floor = u;
+  u_floor.diagonal().array() -= kTwistStretchFloor;
+  if (!positive_definite(t) || !positive_definite(u_floor)) return false;
+  const Mat3 local = (0.5 * rest.volume) * (t * u.inverse());
+  out.held = false;
+  out.c.noalias() = r * rest.grad;
+  out.lambda_volume = rest.volume * rest.lambda;
+  out.mu_volume = rest.volume * rest.mu;
+  out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
+  out.energy = rest.volume * (rest.mu * eps.squaredNorm() + 0.5 * rest.lambda * tr * tr);
+  out.twist.noalias() = r * (0.5 * (local + local.transpose())) * r.transpose();
+  return true;
+}
+
+}  // namespace
+
 void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
                            CorotationalState& out) {
   Mat3 f = Mat3::Zero();
@@ -91,6 +133,7 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   const Mat3 r = q.toRotationMatrix();
   const Mat3 rtf = r.transpose() * f;
   const Mat3 eps = 0.5 * (rtf + rtf.transpose()) - Mat3::Identity();
+  if (evaluate_unclamped(rest, r, eps, out)) return;
   // Strain limit (element.hpp): principal strains and the volumetric strain beyond kStrainLimit
   // keep the stress they have at the limit; the energy grows linearly there.
   Eigen::SelfAdjointEigenSolver<Mat3> es;

@@ -238,6 +238,63 @@ TEST_CASE("co-rotational stiffness is the consistent tangent under prestress and
   }
 }
 
+TEST_CASE("the twist modes of an unclamped element need no eigen-decomposition and are those of one") {
+  // evaluate_corotational forms the twist matrix as R (V/2) T U^-1 R^T where nothing is clamped; here
+  // it is rebuilt from the principal axes, as where something is: rho_k = (sigma_i + sigma_j) /
+  // (s_i + s_j) on the axis k. Tension and compression, with and without prestress, so that both
+  // branches are met.
+  std::mt19937 rng(43);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  int unclamped = 0, clamped = 0;
+  for (int k = 0; k < 200; ++k) {
+    const double prestress = k % 2 == 0 ? 1.15 : 1.0;
+    const X4 rest = random_tet(rng);
+    const TetRest r = make_tet_rest(rest, tissue(prestress), 0.0);
+    Mat3 s = Mat3::Identity() * (k % 4 < 2 ? 1.1 : 0.9);
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j) s(i, j) = s(j, i) = s(i, j) + (i == j ? 1.0 : 0.5) * u(rng);
+    if (s.determinant() < 0.2) continue;
+    const X4 x = deform(rest, random_rotation(rng) * s / prestress, Vec3(u(rng), u(rng), u(rng)));
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    CorotationalState st;
+    evaluate_corotational(r, x, q, st);
+    // The reference, from the rotation the evaluation found.
+    Mat3 f = Mat3::Zero();
+    for (int a = 0; a < 4; ++a) f += x[static_cast<std::size_t>(a)] * r.grad.col(a).transpose();
+    const Mat3 rot = q.toRotationMatrix();
+    const Mat3 g = rot.transpose() * f;
+    const Mat3 eps = 0.5 * (g + g.transpose()) - Mat3::Identity();
+    const Eigen::SelfAdjointEigenSolver<Mat3> es(eps);
+    const Vec3 strain = es.eigenvalues();
+    if (strain.cwiseAbs().maxCoeff() >= kStrainLimit || std::abs(eps.trace()) >= kStrainLimit) continue;
+    const Vec3 principal = 2.0 * r.mu * strain + Vec3::Constant(r.lambda * eps.trace());
+    Vec3 alpha;
+    bool clamps = false;
+    for (int m = 0; m < 3; ++m) {
+      const int i = (m + 1) % 3, j = (m + 2) % 3;
+      const double stretch = 2.0 + strain[i] + strain[j];
+      clamps = clamps || principal[i] + principal[j] <= 0 || stretch <= kTwistStretchFloor;
+      alpha[m] = 0.5 * r.volume *
+                 std::max(0.0, (principal[i] + principal[j]) / std::max(stretch, kTwistStretchFloor));
+    }
+    (clamps ? clamped : unclamped) += 1;
+    const Mat3 axes = rot * es.eigenvectors();
+    const Mat3 twist = axes * alpha.asDiagonal() * axes.transpose();
+    CAPTURE(k);
+    CHECK((st.twist - twist).norm() <= 1e-12 * std::max(twist.norm(), 1e-300 + r.volume * r.mu));
+    Mat3 sigma = 2.0 * r.mu * eps;
+    sigma.diagonal().array() += r.lambda * eps.trace();
+    const Mat34 force = -r.volume * (rot * sigma) * r.grad;
+    CHECK((st.force - force).norm() <= 1e-12 * force.norm());
+    CHECK(std::abs(st.energy -
+                   r.volume * (r.mu * eps.squaredNorm() + 0.5 * r.lambda * eps.trace() * eps.trace())) <=
+          1e-12 * std::abs(st.energy));
+    CHECK_FALSE(st.held);
+  }
+  CHECK(unclamped > 40);
+  CHECK(clamped > 10);
+}
+
 TEST_CASE("under compression the co-rotational stiffness over-estimates the tangent, never under") {
   // Compressed twist modes have negative curvature; they are clamped to zero, so K - dK_exact is
   // positive semi-definite and K itself stays positive semi-definite for CG.
