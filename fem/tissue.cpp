@@ -283,6 +283,19 @@ std::size_t TissueModel::evaluate_elements(double& energy) {
   return static_cast<std::size_t>(held);
 }
 
+namespace {
+
+constexpr std::size_t kPrefetchAhead = 2;
+
+// Asks for every cache line of t ahead of its use.
+template <class T>
+void prefetch(const T& t) {
+  const char* p = reinterpret_cast<const char*>(&t);
+  for (std::size_t line = 0; line < sizeof(T); line += 64) __builtin_prefetch(p + line);
+}
+
+}  // namespace
+
 // Row-wise assembly of A = M + dt C + dt^2 K, the right-hand side and the block-Jacobi inverse.
 void TissueModel::assemble(double dt) {
   const std::size_t nn = rows_.size();
@@ -300,7 +313,13 @@ void TissueModel::assemble(double dt) {
       for (Mat3& blk : row.blocks) blk.setZero();
       Vec3 f = Vec3::Zero();
       // Per entry only the element's state is read (rest data and mass are per row or region).
-      for (const Entry& e : entries_[i]) {
+      const auto& row_entries = entries_[i];
+      for (std::size_t ei = 0; ei < row_entries.size(); ++ei) {
+        const Entry& e = row_entries[ei];
+        // The element states of a row lie far apart (a row's tetrahedra span two layers of cells):
+        // ask for the one two entries on while this one is added.
+        if (corot && ei + kPrefetchAhead < row_entries.size())
+          prefetch(corot_[row_entries[ei + kPrefetchAhead].tet]);
         const double h = stiffness_factor_[static_cast<std::size_t>(tet_region_[e.tet])];
         if (corot) {
           const CorotationalState& s = corot_[e.tet];
