@@ -4,6 +4,7 @@
 // default) and with block-Jacobi alone.
 //
 //   ./build/release/bench/bench_fem
+//   ./build/release/bench/bench_fem --benchmark_filter='BM_TissueStep/24/0/[12]/'   # 1 and 2 threads
 //   ./build/release/bench/bench_fem --benchmark_filter=AfterCut   # medians of 5 repetitions
 //   ./build/release/bench/bench_fem --benchmark_filter=Progressive
 //   ./build/release/bench/bench_fem --benchmark_filter=CoarseFactorisation

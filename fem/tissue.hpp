@@ -157,8 +157,9 @@ struct StepStats {
   // of any result, which stays bit-identical whatever these read).
   struct Seconds {
     double elements = 0;  // evaluate_elements: rotations, strains, stresses, forces
-    double assembly = 0;  // the matrix, the right-hand side and the warm start
-    double local = 0;     // the coarse update and the local solve after a topology change
+    double assembly = 0;  // the rows a cut changed, the matrix, the right-hand side, the step's plan
+                          // (which finds the local solve's region) and the warm start
+    double local = 0;     // the coarse preconditioner's split or rebuild, the local solve after a cut
     double solve = 0;     // conjugate gradients and the velocities applied
   } seconds;
 };
