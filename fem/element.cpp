@@ -90,7 +90,7 @@ bool positive_definite(const Mat3& m) {
   return m(0, 0) > 0 && m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0) > 0 && m.determinant() > 0;
 }
 
-// The element's stress, force, energy and twist modes where no principal strain and not the volumetric
+// The element's stress (held), force, energy and twist modes where no principal strain and not the volumetric
 // strain reach the strain limit, every pair of principal stresses sums to more than zero and every
 // pair of principal stretches to more than kTwistStretchFloor: then nothing is clamped, and the twist
 // matrix R (V/2) T U^-1 R^T, with T = tr(sigma) I - sigma and U = tr(S) I - S, has the eigenvalues
@@ -114,9 +114,6 @@ bool evaluate_unclamped(const TetRest& rest, const Mat3& r, const Mat3& eps, Cor
   if (!positive_definite(t) || !positive_definite(u_floor)) return false;
   const Mat3 local = (0.5 * rest.volume) * (t * u.inverse());
   out.held = false;
-  out.c.noalias() = r * rest.grad;
-  out.lambda_volume = rest.volume * rest.lambda;
-  out.mu_volume = rest.volume * rest.mu;
   out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
   out.energy = rest.volume * (rest.mu * eps.squaredNorm() + 0.5 * rest.lambda * tr * tr);
   out.twist.noalias() = r * (0.5 * (local + local.transpose())) * r.transpose();
@@ -133,7 +130,14 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   const Mat3 r = q.toRotationMatrix();
   const Mat3 rtf = r.transpose() * f;
   const Mat3 eps = 0.5 * (rtf + rtf.transpose()) - Mat3::Identity();
-  if (evaluate_unclamped(rest, r, eps, out)) return;
+  out.c.noalias() = r * rest.grad;
+  out.lambda_volume = rest.volume * rest.lambda;
+  out.mu_volume = rest.volume * rest.mu;
+  if (!evaluate_unclamped(rest, r, eps, out)) corotational_stress_from_principal_axes(rest, r, eps, out);
+}
+
+void corotational_stress_from_principal_axes(const TetRest& rest, const Mat3& r, const Mat3& eps,
+                                             CorotationalState& out) {
   // Strain limit (element.hpp): principal strains and the volumetric strain beyond kStrainLimit
   // keep the stress they have at the limit; the energy grows linearly there.
   Eigen::SelfAdjointEigenSolver<Mat3> es;
@@ -147,9 +151,6 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   if (held != strain) e.noalias() = es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose();
   Mat3 sigma = 2.0 * rest.mu * e;
   sigma.diagonal().array() += rest.lambda * tr_held;
-  out.c.noalias() = r * rest.grad;
-  out.lambda_volume = rest.volume * rest.lambda;
-  out.mu_volume = rest.volume * rest.mu;
   out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
   out.energy = rest.volume * (rest.mu * (2.0 * e.cwiseProduct(eps).sum() - e.squaredNorm()) +
                               0.5 * rest.lambda * tr_held * (2.0 * tr - tr_held));

@@ -173,6 +173,12 @@ struct CorotationalState {
 void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
                            CorotationalState& out);
 
+// Its general case: `held`, `force`, `energy` and `twist` from the principal axes of the strain
+// eps in the frame of the rotation r. evaluate_corotational() forms them without the axes where
+// nothing is clamped (docs/tissue.md); tests compare the two.
+void corotational_stress_from_principal_axes(const TetRest& rest, const Mat3& r, const Mat3& eps,
+                                             CorotationalState& out);
+
 // Adds s K_ab to k, given u = s V lambda c_a and w = s V mu c_a (s any common factor):
 // s K_ab = u c_b^T + c_b w^T + (w . c_b) I. The assembly scales u and w once per row entry.
 inline void add_corotational_block(Mat3& k, const Vec3& u, const Vec3& w, const Vec3& cb) {

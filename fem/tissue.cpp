@@ -499,11 +499,9 @@ StepStats TissueModel::solve_step(double dt, bool last) {
   ++coarse_age_;
   const std::size_t nn = rows_.size();
   parallel::Team& team = this->team();
-  double refreshed = 0;
-  stage_end(refreshed);
+  stage_end(st.seconds.assembly);
   st.strain_limited = evaluate_elements(st.elastic_energy);
   stage_end(st.seconds.elements);
-  st.seconds.assembly = refreshed;
   if (!std::isfinite(st.elastic_energy))
     return fail("non-finite elastic energy (NaN or inf in the positions)");
   assemble(dt);

@@ -243,36 +243,14 @@ TEST_CASE("co-rotational stiffness is the consistent tangent under prestress and
 namespace {
 
 // The co-rotational element's state as the general case forms it, from the principal axes of the
-// strain (element.cpp), at the rotation q an evaluation found.
+// strain, at the rotation q an evaluation found.
 CorotationalState principal_axes_state(const TetRest& r, const X4& x, const Eigen::Quaterniond& q) {
   Mat3 f = Mat3::Zero();
   for (int a = 0; a < 4; ++a) f += x[static_cast<std::size_t>(a)] * r.grad.col(a).transpose();
   const Mat3 rot = q.toRotationMatrix();
   const Mat3 g = rot.transpose() * f;
-  const Mat3 eps = 0.5 * (g + g.transpose()) - Mat3::Identity();
-  Eigen::SelfAdjointEigenSolver<Mat3> es;
-  es.computeDirect(eps);  // as the general case does
-  const Vec3 strain = es.eigenvalues();
-  const Vec3 held = strain.cwiseMax(-kStrainLimit).cwiseMin(kStrainLimit);
-  const double tr = eps.trace(), tr_held = std::clamp(tr, -kStrainLimit, kStrainLimit);
-  const Mat3 e =
-      held == strain ? eps : Mat3(es.eigenvectors() * held.asDiagonal() * es.eigenvectors().transpose());
-  Mat3 sigma = 2.0 * r.mu * e;
-  sigma.diagonal().array() += r.lambda * tr_held;
   CorotationalState st;
-  st.held = held != strain || tr_held != tr;
-  st.force = -r.volume * (rot * sigma) * r.grad;
-  st.energy = r.volume * (r.mu * (2.0 * e.cwiseProduct(eps).sum() - e.squaredNorm()) +
-                          0.5 * r.lambda * tr_held * (2.0 * tr - tr_held));
-  const Vec3 principal = 2.0 * r.mu * held + Vec3::Constant(r.lambda * tr_held);
-  Vec3 alpha;
-  for (int m = 0; m < 3; ++m) {
-    const int i = (m + 1) % 3, j = (m + 2) % 3;
-    const double stretch = std::max(2.0 + strain[i] + strain[j], kTwistStretchFloor);
-    alpha[m] = 0.5 * r.volume * std::max(0.0, (principal[i] + principal[j]) / stretch);
-  }
-  const Mat3 axes = rot * es.eigenvectors();
-  st.twist = axes * alpha.asDiagonal() * axes.transpose();
+  corotational_stress_from_principal_axes(r, rot, 0.5 * (g + g.transpose()) - Mat3::Identity(), st);
   return st;
 }
 
@@ -311,9 +289,9 @@ TEST_CASE("the twist modes of an unclamped element need no eigen-decomposition a
     (any_clamped ? clamped : unclamped) += 1;
     CAPTURE(k);
     CAPTURE(strains[k].transpose());
-    // The closed-form eigen-solver (computeDirect) is accurate to about 1e-10 where principal
-    // strains repeat, which the unclamped case does not need. A wrong formula or bound is off by far
-    // more (a factor 1.02 in the unclamped twist fails here for 98 of the 214 elements).
+    // The general case's closed-form eigen-solver (computeDirect) is accurate to about 1e-10 where
+    // principal strains repeat, which the unclamped formula does not need. A wrong formula or bound is off by
+    // far more (a factor 1.02 in the unclamped twist fails here for 98 of the 214 elements).
     constexpr double kTolerance = 1e-9;
     CHECK((st.twist - ref.twist).norm() <= kTolerance * std::max(ref.twist.norm(), r.volume * r.mu));
     CHECK((st.force - ref.force).norm() <=
