@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <sstream>
 
 #include "base/input_error.hpp"
@@ -171,6 +172,15 @@ void Simulation::update_bounds() {
     bounds_lo_ = bounds_lo_.cwiseMin(mesh_.position(n));
     bounds_hi_ = bounds_hi_.cwiseMax(mesh_.position(n));
   }
+  surface_->fit(mesh_);
+}
+
+const SurfaceProbe& Simulation::surface() const {
+#ifdef SCALPEL_VALIDATE
+  if (surface_->stale(mesh_.positions()))
+    throw std::logic_error("Simulation: the surface moved since the probe's boxes were fitted (update_bounds)");
+#endif
+  return *surface_;
 }
 
 std::optional<TaskScore> Simulation::task_score() const {
@@ -200,7 +210,7 @@ std::optional<SurfaceHit> Simulation::entry(const BladePose& before, const Blade
   for (int k = 0; k <= points; ++k) {
     const double u = static_cast<double>(k) / points;  // from the tip
     const Vec3 from = before.tip + u * (before.back - before.tip), to = now.tip + u * (now.back - now.tip);
-    if (const auto hit = surface_->entry(mesh_.positions(), from, to)) return hit;
+    if (const auto hit = surface().entry(mesh_.positions(), from, to)) return hit;
   }
   return std::nullopt;
 }
@@ -221,7 +231,7 @@ bool Simulation::on_earlier_cut(const Vec3& point, const Vec3& normal) const {
 std::optional<Vec3> Simulation::under_surface(const BladePose& pose) const {
   const Vec3 lo = pose.tip.cwiseMin(pose.back), hi = pose.tip.cwiseMax(pose.back);
   if (!meets_bounds(lo, hi)) return std::nullopt;
-  return surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
+  return surface().deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
 }
 
 Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) {
@@ -251,7 +261,7 @@ Simulation::BladeMove Simulation::press_or_cut(const BladePose& pose, double t) 
       // incision already made. A blade in the tissue never passes through it.
       if (samples_ > 0)
         if (const auto deepest = under_surface(pose)) {
-          const Vec3 up = surface_->nearest(mesh_.positions(), *deepest, pose.back - pose.tip).normal;
+          const Vec3 up = surface().nearest(mesh_.positions(), *deepest, pose.back - pose.tip).normal;
           if ((pose.tip - before.tip).dot(up) > 0.0 || pose.tip == before.tip) return BladeMove::Hold;
           press.enter_without_press();
           return BladeMove::Sweep;
@@ -292,13 +302,13 @@ void Simulation::on_sample(const ToolSample& s) {
     // A tip outside the tissue's box is never under its surface, whatever the ray test says where
     // rounding lets the line slip between the triangles it enters through.
     if (meets_bounds(lo, hi))
-      if (const auto deepest = surface_->deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
+      if (const auto deepest = surface().deepest_in_tissue(mesh_.positions(), pose.tip, pose.back);
           deepest && (*deepest != pose.tip || meets_bounds(pose.tip, pose.tip))) {
-        hit = surface_->nearest(mesh_.positions(), *deepest, up);
+        hit = surface().nearest(mesh_.positions(), *deepest, up);
         if (const auto at = cutter_->locate(*deepest, kBladeHalfThickness)) {
           rest_tip = Vec3::Zero();
           for (int i = 0; i < 4; ++i) *rest_tip += at->weights[i] * mesh_.rest(at->corners[i]);
-          material_depth = surface_->nearest(mesh_.rest_positions(), *rest_tip, up).depth;
+          material_depth = surface().nearest(mesh_.rest_positions(), *rest_tip, up).depth;
         }
       }
     scorer_->on_sample(s.t, pose, stats, hit, rest_tip, material_depth, hand_force(s));

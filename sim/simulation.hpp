@@ -185,8 +185,11 @@ class Simulation {
  private:
   // Sets the tissue's external forces from the blade's motion over the frame (see above).
   void push_tissue();
-  // The box of the current positions (bounds_lo_, bounds_hi_).
+  // The box of the current positions (bounds_lo_, bounds_hi_), and the surface probe's boxes: called
+  // whenever positions move.
   void update_bounds();
+  // The surface probe (checked against the positions in SCALPEL_VALIDATE builds).
+  [[nodiscard]] const SurfaceProbe& surface() const;
   // Hands the cutter's last changes to the tissue model.
   void hand_over_cut();
   // Holds the pieces cuts have severed from every fixed node (see SeveredPiece).

@@ -13,10 +13,12 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <span>
 #include <vector>
 
+#include "mesh/bvh.hpp"
 #include "mesh/mesh.hpp"
 
 namespace scalpel {
@@ -70,11 +72,53 @@ class SurfaceProbe {
   // Forgets the triangles with a corner among `removed` (sorted node slots of a deleted piece).
   void drop_faces_of(std::span<const std::uint32_t> removed);
 
+  // Boxes the triangles in `mesh`'s current and rest positions, so that the queries in those
+  // positions visit only the triangles near the point or the line (a tree of boxes, refitted, not
+  // rebuilt). The owner calls it again whenever the positions move: a query in positions the probe
+  // was not fitted to tests every triangle, but one in positions that moved since the fit would
+  // miss triangles. Queries find the same triangle either way: among equals, the first in order.
+  void fit(const TetMesh& mesh);
+  // Whether the queries in `x` would use boxes that no longer hold its triangles: x moved since the
+  // last fit (for checks; O(triangles)).
+  [[nodiscard]] bool stale(const std::vector<Vec3>& x) const;
+
   static constexpr double kFacingDeg = 60;
   static constexpr double kFacingCos = 0.5;  // cos(kFacingDeg)
 
  private:
+  // The nearest crossing of the blade's line, from its tip towards its back, with a triangle: its
+  // distance from the tip, the triangle's (unnormalised, outward) normal, nodes and index, with the
+  // line's unit direction and the blade's length.
+  struct Crossing {
+    double t = std::numeric_limits<double>::infinity();
+    Vec3 normal = Vec3::Zero();
+    std::array<std::uint32_t, 3> face{};
+    std::size_t index = 0;  // in faces_
+    Vec3 dir = Vec3::Zero();
+    double length = 0;
+    [[nodiscard]] bool leaving() const { return normal.dot(dir) > 0.0; }
+  };
+  // None for a blade of no length.
+  [[nodiscard]] std::optional<Crossing> first_crossing(const std::vector<Vec3>& x, const Vec3& tip,
+                                                       const Vec3& back) const;
+
+  // The triangles' boxes in one set of positions, known by its storage (a vector that grew moved).
+  struct Boxes {
+    const Vec3* data = nullptr;
+    std::size_t size = 0;
+    AabbTree tree;  // leaf payload: index in faces_
+    std::vector<std::int32_t> leaves;
+    [[nodiscard]] bool fits(const std::vector<Vec3>& x) const { return data == x.data() && size == x.size(); }
+  };
+  void fit(Boxes& boxes, const std::vector<Vec3>& x);
+  [[nodiscard]] const Boxes* boxes_for(const std::vector<Vec3>& x) const;
+  [[nodiscard]] Aabb face_box(const std::vector<Vec3>& x, std::size_t f) const;
+
   std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented
+  Boxes current_, rest_;
+  double margin_ = 0;  // [m] each box grows by, beyond the rounding of the queries' tests
+  mutable std::vector<std::int32_t> stack_;  // scratch of the tree's walks
+  std::vector<std::int32_t> order_;          // scratch of the refit
 };
 
 }  // namespace scalpel
