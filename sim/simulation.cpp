@@ -6,8 +6,8 @@
 #include <limits>
 #include <map>
 #include <set>
-#include <stdexcept>
 #include <sstream>
+#include <stdexcept>
 
 #include "base/input_error.hpp"
 #include "mesh/manifold.hpp"
@@ -178,7 +178,8 @@ void Simulation::update_bounds() {
 const SurfaceProbe& Simulation::surface() const {
 #ifdef SCALPEL_VALIDATE
   if (surface_->stale(mesh_.positions()))
-    throw std::logic_error("Simulation: the surface moved since the probe's boxes were fitted (update_bounds)");
+    throw std::logic_error(
+        "Simulation: the surface moved since the probe's boxes were fitted (update_bounds)");
 #endif
   return *surface_;
 }

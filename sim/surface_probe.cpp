@@ -43,20 +43,23 @@ void SurfaceProbe::fit(const TetMesh& mesh) {
     margin_ = 1e-9 * (all.hi - all.lo).norm();
   }
   fit(current_, mesh.positions());
-  fit(rest_, mesh.rest_positions());
+  // The triangles' corners never move at rest.
+  if (!rest_.fits(mesh.rest_positions()) || rest_.tree.leaf_count() != faces_.size())
+    fit(rest_, mesh.rest_positions());
 }
 
 void SurfaceProbe::fit(Boxes& boxes, const std::vector<Vec3>& x) {
   if (boxes.tree.leaf_count() != faces_.size()) {
     std::vector<AabbTree::LeafInput> leaves(faces_.size());
-    for (std::size_t f = 0; f < faces_.size(); ++f) leaves[f] = {face_box(x, f), static_cast<std::uint32_t>(f)};
+    for (std::size_t f = 0; f < faces_.size(); ++f)
+      leaves[f] = {face_box(x, f), static_cast<std::uint32_t>(f)};
     boxes.tree.build(leaves, boxes.leaves);
   } else {
-    for (std::size_t f = 0; f < faces_.size(); ++f) boxes.tree.set_leaf_box_only(boxes.leaves[f], face_box(x, f));
+    for (std::size_t f = 0; f < faces_.size(); ++f)
+      boxes.tree.set_leaf_box_only(boxes.leaves[f], face_box(x, f));
     boxes.tree.refit_internal(order_);
   }
-  boxes.data = x.data();
-  boxes.size = x.size();
+  boxes.positions = &x;
 }
 
 bool SurfaceProbe::stale(const std::vector<Vec3>& x) const {
@@ -81,7 +84,8 @@ namespace {
 
 // Moller-Trumbore, edges inclusive, so a ray through an edge or a vertex still meets the surface:
 // the ray's parameter where it meets triangle abc, if it does at t >= 0.
-std::optional<double> ray_meets(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& from, const Vec3& dir) {
+std::optional<double> ray_meets(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& from,
+                                const Vec3& dir) {
   const Vec3 e1 = b - a, e2 = c - a;
   const Vec3 pv = dir.cross(e2);
   const double det = e1.dot(pv);
@@ -121,8 +125,8 @@ double distance2(const Aabb& b, const Vec3& p) {
 
 }  // namespace
 
-std::optional<SurfaceProbe::Crossing> SurfaceProbe::first_crossing(const std::vector<Vec3>& x, const Vec3& tip,
-                                                                   const Vec3& back) const {
+std::optional<SurfaceProbe::Crossing> SurfaceProbe::first_crossing(const std::vector<Vec3>& x,
+                                                                   const Vec3& tip, const Vec3& back) const {
   Crossing best;
   best.length = (back - tip).norm();
   if (!(best.length > 0.0)) return std::nullopt;
@@ -192,10 +196,24 @@ SurfaceHit SurfaceProbe::nearest(const std::vector<Vec3>& x, const Vec3& p, cons
     best_index = f;
     best = {std::sqrt(d2), q, n.normalized(), face};
   };
-  if (const Boxes* boxes = boxes_for(x))
-    boxes->tree.query([&](const Aabb& box) { return distance2(box, p) <= best_d2; },
-                      [&](std::uint32_t f) { test(f); }, stack_);
-  else
+  if (const Boxes* boxes = boxes_for(x)) {
+    // Nearer boxes first, so that the first triangles tested rule out most of the others.
+    const AabbTree& tree = boxes->tree;
+    stack_.assign(1, tree.root());
+    while (!stack_.empty()) {
+      const AabbTree::Node& n = tree.node(stack_.back());
+      stack_.pop_back();
+      if (distance2(n.box, p) > best_d2) continue;
+      if (n.is_leaf()) {
+        test(n.payload);
+        continue;
+      }
+      const bool first_nearer =
+          distance2(tree.node(n.child1).box, p) <= distance2(tree.node(n.child2).box, p);
+      stack_.push_back(first_nearer ? n.child2 : n.child1);
+      stack_.push_back(first_nearer ? n.child1 : n.child2);
+    }
+  } else
     for (std::size_t f = 0; f < faces_.size(); ++f) test(f);
   return best;
 }

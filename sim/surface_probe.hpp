@@ -102,13 +102,14 @@ class SurfaceProbe {
   [[nodiscard]] std::optional<Crossing> first_crossing(const std::vector<Vec3>& x, const Vec3& tip,
                                                        const Vec3& back) const;
 
-  // The triangles' boxes in one set of positions, known by its storage (a vector that grew moved).
+  // The triangles' boxes in one set of positions, known by the vector that holds them (a mesh's,
+  // which stays where it is as it grows: the triangles' corners keep their positions when nodes are
+  // added).
   struct Boxes {
-    const Vec3* data = nullptr;
-    std::size_t size = 0;
+    const std::vector<Vec3>* positions = nullptr;
     AabbTree tree;  // leaf payload: index in faces_
     std::vector<std::int32_t> leaves;
-    [[nodiscard]] bool fits(const std::vector<Vec3>& x) const { return data == x.data() && size == x.size(); }
+    [[nodiscard]] bool fits(const std::vector<Vec3>& x) const { return positions == &x; }
   };
   void fit(Boxes& boxes, const std::vector<Vec3>& x);
   [[nodiscard]] const Boxes* boxes_for(const std::vector<Vec3>& x) const;

@@ -32,8 +32,7 @@ TetMesh bent_patch() {
 }
 
 // The same query in the fitted positions (boxes) and in a copy of them (every triangle).
-void check_same(const SurfaceProbe& probe, const TetMesh& mesh, std::mt19937& rng, int queries,
-                int& hits) {
+void check_same(const SurfaceProbe& probe, const TetMesh& mesh, std::mt19937& rng, int queries, int& hits) {
   const std::vector<Vec3>& fitted = mesh.positions();
   const std::vector<Vec3> copy = fitted;
   std::uniform_real_distribution<double> ux(-0.005, 0.035), uy(-0.005, 0.025), uz(-0.006, 0.012),
@@ -76,7 +75,6 @@ TEST_CASE("surface probe: queries in fitted positions find what a test of every 
   int hits = 0;
   check_same(probe, mesh, rng, 2000, hits);
   CHECK(hits > 1000);
-
 
   // The tissue moves and the probe is fitted again.
   // The tissue moves and the probe is fitted again.
