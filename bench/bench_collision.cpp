@@ -3,7 +3,8 @@
 // Boxes of 10 cm with about 10k, 100k and 1M tetrahedra (6 per cube); a 2.3 cm oblique blade makes
 // one 1 ms step at 0.1 m/s (0.1 mm). Also: refit after deformation, full rebuild, the remove +
 // insert of one tetrahedron the cutter does per subdivision, and the point location of the tool's
-// contact (CutEngine::locate) along a blade that has cut 10 mm.
+// contact (CutEngine::locate) along a blade that has cut 10 mm, and the score's probe of the surface
+// above the blade at every sample (sim/surface_probe.hpp), with and without its boxes.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -13,6 +14,7 @@
 #include "cutting/blade_sweep.hpp"
 #include "cutting/cut_engine.hpp"
 #include "mesh/generators.hpp"
+#include "sim/surface_probe.hpp"
 
 using namespace scalpel;
 
@@ -150,6 +152,36 @@ void BM_LocateAlongBlade(benchmark::State& state) {
   state.counters["in_tissue"] = found;
 }
 
+// What Simulation::on_sample asks of the surface at a sample in the tissue: the blade's deepest
+// point, the nearest skin above it now and at rest; an incision 3 mm deep in the box's top. fitted = 0:
+// positions the probe has no boxes for (every triangle is tested, as before the boxes).
+void BM_SurfaceProbe(benchmark::State& state) {
+  const TetMesh& m = box_mesh(static_cast<int>(state.range(0)));
+  SurfaceProbe probe(m);
+  probe.fit(m);
+  const std::vector<Vec3> unfitted = m.positions();
+  const std::vector<Vec3>& x = state.range(1) != 0 ? m.positions() : unfitted;
+  BladePose b;
+  b.tip = Vec3(0.0503, 0.0497, 0.097);
+  b.back = b.tip + Vec3(0.012, 0.004, 0.02);
+  const Vec3 up = b.back - b.tip;
+  double depth = 0;
+  for (auto _ : state) {
+    const auto deepest = probe.deepest_in_tissue(x, b.tip, b.back);
+    depth = probe.nearest(x, *deepest, up).depth + probe.nearest(m.rest_positions(), *deepest, up).depth;
+    benchmark::DoNotOptimize(depth);
+  }
+  state.counters["depth_mm"] = 1e3 * depth / 2;
+}
+
+// The probe's refit after the tissue moved: once a frame (Simulation::update_bounds).
+void BM_SurfaceProbeFit(benchmark::State& state) {
+  const TetMesh& m = box_mesh(static_cast<int>(state.range(0)));
+  SurfaceProbe probe(m);
+  probe.fit(m);
+  for (auto _ : state) probe.fit(m);
+}
+
 }  // namespace
 
 BENCHMARK(BM_Sweep)
@@ -166,5 +198,15 @@ BENCHMARK(BM_RefitLarge)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMillisecon
 BENCHMARK(BM_Rebuild)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_RemoveInsert)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_LocateAlongBlade)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SurfaceProbe)
+    ->ArgNames({"cells", "fitted"})
+    ->Args({12, 0})
+    ->Args({12, 1})
+    ->Args({26, 0})
+    ->Args({26, 1})
+    ->Args({55, 0})
+    ->Args({55, 1})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SurfaceProbeFit)->Arg(12)->Arg(26)->Arg(55)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();
