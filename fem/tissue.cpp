@@ -57,7 +57,8 @@ void TissueModel::grow() {
     external_.resize(nn, Vec3::Zero());
     mass_.resize(nn, 0.0);
     mass_damping_.resize(nn, 0.0);
-    rows_.resize(nn);
+    rows_.grow(nn);
+    row_cols_.resize(nn);
     entries_.resize(nn);
     for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_, &t_}) v->resize(nn, Vec3::Zero());
     diag_inverse_.resize(nn, Mat3::Identity());
@@ -182,33 +183,29 @@ const TetRest& TissueModel::tet_rest(TetId t) const {
 }
 
 // Rebuilds one node row: its incident elements, sparsity pattern and lumped mass.
+// Row i's columns (into row_cols_[i], placed by refresh()), incident elements, mass and state.
 void TissueModel::rebuild_row(std::uint32_t i) {
-  BlockRow& row = rows_[i];
+  std::vector<std::uint32_t>& cols = row_cols_[i];
   std::vector<Entry>& entries = entries_[i];
-  row.cols.clear();
+  cols.clear();
   entries.clear();
   mass_[i] = 0;
   mass_damping_[i] = 0;
   active_[i] = 0;
   passenger_[i] = 0;
-  if (!mesh_.node_slot_alive(i)) {
-    row.blocks.clear();
-    return;
-  }
+  if (!mesh_.node_slot_alive(i)) return;
   std::vector<std::uint32_t> tets;
   for (const std::uint32_t t : mesh_.node_tets(mesh_.node_handle(i)))
     if (t < tet_on_.size() && tet_on_[t]) tets.push_back(t);
   std::sort(tets.begin(), tets.end());
-  row.cols.push_back(i);
+  cols.push_back(i);
   for (const std::uint32_t t : tets)
-    for (const std::uint32_t n : tet_vertices_[t]) row.cols.push_back(n);
-  std::sort(row.cols.begin(), row.cols.end());
-  row.cols.erase(std::unique(row.cols.begin(), row.cols.end()), row.cols.end());
+    for (const std::uint32_t n : tet_vertices_[t]) cols.push_back(n);
+  std::sort(cols.begin(), cols.end());
+  cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
   const auto col_of = [&](std::uint32_t n) {
-    return static_cast<std::uint32_t>(std::lower_bound(row.cols.begin(), row.cols.end(), n) -
-                                      row.cols.begin());
+    return static_cast<std::uint32_t>(std::lower_bound(cols.begin(), cols.end(), n) - cols.begin());
   };
-  row.diag = col_of(i);
   bool supported = false;
   for (const std::uint32_t t : tets) {
     supported = supported || rest_[t].quality >= settings_.support_quality;
@@ -223,7 +220,6 @@ void TissueModel::rebuild_row(std::uint32_t i) {
     mass_[i] += m.density * rest_[t].mass_volume / 4.0;
     mass_damping_[i] += m.damping_mass * m.density * rest_[t].mass_volume / 4.0;
   }
-  row.blocks.assign(row.cols.size(), Mat3::Zero());
   const bool free = !prescribed_[i] && mass_[i] > 0;
   active_[i] = (free && supported) ? 1 : 0;
   passenger_[i] = (free && !supported) ? 1 : 0;
@@ -239,6 +235,8 @@ void TissueModel::refresh() {
       dirty_[dirty_list_[k]] = 0;
     }
   });
+  // Placed one by one, in row order (BlockRows).
+  for (const std::uint32_t i : dirty_list_) rows_.set(i, row_cols_[i]);
   const auto middle = static_cast<std::ptrdiff_t>(changed_.size());
   changed_.insert(changed_.end(), dirty_list_.begin(), dirty_list_.end());
   std::inplace_merge(changed_.begin(), changed_.begin() + middle, changed_.end());
@@ -312,8 +310,9 @@ void TissueModel::assemble(double dt) {
         b_[i].setZero();
         continue;
       }
-      BlockRow& row = rows_[i];
-      for (Mat3& blk : row.blocks) blk.setZero();
+      const BlockRow& row = rows_[i];
+      const std::span<Mat3> blocks = rows_.blocks(i);
+      for (Mat3& blk : blocks) blk.setZero();
       Vec3 f = Vec3::Zero();
       // Per entry only the element's state is read (rest data and mass are per row or region).
       const auto& row_entries = entries_[i];
@@ -331,22 +330,22 @@ void TissueModel::assemble(double dt) {
           const Vec3 u = (h * s.lambda_volume) * ca, w = (h * s.mu_volume) * ca;
           const Mat3 n = twist_factor(s, e.local, h);
           for (int b = 0; b < 4; ++b) {
-            Mat3& k = row.blocks[e.block[static_cast<size_t>(b)]];
+            Mat3& k = blocks[e.block[static_cast<size_t>(b)]];
             add_corotational_block(k, u, w, s.c.col(b));
             add_twist_block(k, n, s.c.col(b));
           }
         } else {
           const MassSpringState& s = spring_[e.tet];
           f += s.force.col(e.local);
-          add_mass_spring_row(s, e.local, h,
-                              {&row.blocks[e.block[0]], &row.blocks[e.block[1]], &row.blocks[e.block[2]],
-                               &row.blocks[e.block[3]]});
+          add_mass_spring_row(
+              s, e.local, h,
+              {&blocks[e.block[0]], &blocks[e.block[1]], &blocks[e.block[2]], &blocks[e.block[3]]});
         }
       }
-      row.blocks[row.diag].diagonal().array() += mass_[i] + dt * mass_damping_[i];
+      blocks[row.diag].diagonal().array() += mass_[i] + dt * mass_damping_[i];
       // Fixed or massless neighbours have v = 0: their columns drop out.
       for (std::size_t k = 0; k < row.cols.size(); ++k)
-        if (!active_[row.cols[k]]) row.blocks[k].setZero();
+        if (!active_[row.cols[k]]) blocks[k].setZero();
       b_[i] = mass_[i] * vel[i] + dt * (f + mass_[i] * settings_.gravity + external_[i]);
       diag_inverse_[i] = row.blocks[row.diag].inverse();
     }

@@ -282,9 +282,10 @@ class TissueModel {
   std::vector<std::uint8_t> passenger_;  // free, but no element supports it (see above)
   std::vector<Vec3> external_;
   std::vector<double> mass_;
-  std::vector<double> mass_damping_;         // alpha M, lumped [kg/s]
-  std::vector<BlockRow> rows_;               // A, one block row per node slot
-  std::vector<std::vector<Entry>> entries_;  // per node slot: incident tets, sorted by slot
+  std::vector<double> mass_damping_;                  // alpha M, lumped [kg/s]
+  BlockRows rows_;                                    // A, one block row per node slot
+  std::vector<std::vector<std::uint32_t>> row_cols_;  // the columns rebuild_row() finds, to place
+  std::vector<std::vector<Entry>> entries_;           // per node slot: incident tets, sorted by slot
   TwoLevelPreconditioner coarse_;
   bool coarse_stale_ = true;     // rebuild before the next solve
   bool coarse_regroup_ = false;  // the same, keeping lambda

@@ -35,7 +35,7 @@ std::vector<double> partials(std::size_t n) {
 // nodes on z = 0 fixed. Block rows as the tissue model assembles them.
 struct System {
   TetMesh mesh;
-  std::vector<BlockRow> a;
+  BlockRows a;
   std::vector<std::uint8_t> active;
   std::vector<Mat3> diag_inverse;
 };
@@ -51,13 +51,11 @@ System make_system(std::array<int, 3> cells, double stiffness_scale = 1.0) {
   for (const TetId t : s.mesh.tets())
     for (const std::uint32_t i : s.mesh.tet_vertex_indices(t.index))
       for (const std::uint32_t j : s.mesh.tet_vertex_indices(t.index)) cols[i].push_back(j);
-  s.a.resize(nn);
+  s.a.grow(nn);
   for (std::uint32_t i = 0; i < nn; ++i) {
     std::sort(cols[i].begin(), cols[i].end());
     cols[i].erase(std::unique(cols[i].begin(), cols[i].end()), cols[i].end());
-    s.a[i].cols = cols[i];
-    s.a[i].blocks.assign(cols[i].size(), Mat3::Zero());
-    s.a[i].diag = static_cast<std::uint32_t>(std::find(cols[i].begin(), cols[i].end(), i) - cols[i].begin());
+    s.a.set(i, cols[i]);
   }
   Material mat;
   mat.young = 50e3 * stiffness_scale;
@@ -71,20 +69,21 @@ System make_system(std::array<int, 3> cells, double stiffness_scale = 1.0) {
     CorotationalState st;
     evaluate_corotational(rest, x, q, st);
     for (int p = 0; p < 4; ++p) {
-      BlockRow& row = s.a[v[static_cast<size_t>(p)]];
-      row.blocks[row.diag].diagonal().array() += mat.density * rest.mass_volume / 4;
+      const BlockRow& row = s.a[v[static_cast<size_t>(p)]];
+      const std::span<Mat3> blocks = s.a.blocks(v[static_cast<size_t>(p)]);
+      blocks[row.diag].diagonal().array() += mat.density * rest.mass_volume / 4;
       for (int b = 0; b < 4; ++b) {
         const auto k =
             std::find(row.cols.begin(), row.cols.end(), v[static_cast<size_t>(b)]) - row.cols.begin();
         if (s.active[v[static_cast<size_t>(b)]])
-          row.blocks[static_cast<std::size_t>(k)] += h * corotational_block(st, p, b);
+          blocks[static_cast<std::size_t>(k)] += h * corotational_block(st, p, b);
       }
     }
   }
   s.diag_inverse.assign(nn, Mat3::Identity());
   for (std::uint32_t i = 0; i < nn; ++i) {
     if (!s.active[i]) {
-      for (Mat3& blk : s.a[i].blocks) blk.setZero();
+      for (Mat3& blk : s.a.blocks(i)) blk.setZero();
       continue;
     }
     s.diag_inverse[i] = s.a[i].blocks[s.a[i].diag].inverse();
@@ -372,16 +371,17 @@ System cut_system(const System& s, double scale, std::vector<std::uint32_t>& cha
   const auto side = [&](std::uint32_t i) { return cut.mesh.positions()[i].x() > kCutPlane; };
   changed.clear();
   for (std::uint32_t i = 0; i < cut.a.size(); ++i) {
-    BlockRow& row = cut.a[i];
-    BlockRow kept;
+    const BlockRow& row = cut.a[i];
+    std::vector<std::uint32_t> kept;
+    std::vector<Mat3> kept_blocks;
     for (std::size_t k = 0; k < row.cols.size(); ++k)
       if (side(row.cols[k]) == side(i)) {
-        if (row.cols[k] == i) kept.diag = static_cast<std::uint32_t>(kept.cols.size());
-        kept.cols.push_back(row.cols[k]);
-        kept.blocks.push_back(scale * row.blocks[k]);
+        kept.push_back(row.cols[k]);
+        kept_blocks.push_back(scale * row.blocks[k]);
       }
-    if (kept.cols.size() != row.cols.size()) changed.push_back(i);
-    row = kept;
+    if (kept.size() != row.cols.size()) changed.push_back(i);
+    cut.a.set(i, kept);
+    std::copy(kept_blocks.begin(), kept_blocks.end(), cut.a.blocks(i).begin());
     if (cut.active[i]) cut.diag_inverse[i] = row.blocks[row.diag].inverse();
   }
   return cut;
