@@ -574,7 +574,7 @@ TissueModel::StepPlan TissueModel::plan_step() {
   }
   // A cut that severs a coarse aggregate: the split runs beside the local solve, whose region then
   // has fewer rings.
-  p.severs = p.extend && coarse_.severs(rows_, active_, changed_);
+  p.severs = p.extend && coarse_.severs(rows_, active_, changed_, settings_.coarse_regroup_growth);
   // After a topology change: the local solve first (see tissue.hpp), on this region.
   p.region = p.changed && local_region(changed_, p.active_count,
                                        p.severs ? std::min(settings_.local_rings, settings_.severing_rings)
@@ -641,8 +641,8 @@ bool TissueModel::warm_start(const StepPlan& plan, double& rr, double& b_norm) {
 void TissueModel::split_coarse(const StepPlan& plan, parallel::Team& split_team, StepStats& st) {
   if (plan.severs) {
     const bool whole = coarse_age_ > kCoarseRefreshSteps;
-    st.aggregates_split =
-        coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team, whole);
+    st.aggregates_split = coarse_.split_severed(rows_, active_, changed_, mesh_.positions(), split_team,
+                                                whole, settings_.coarse_regroup_growth);
     if (coarse_.split_whole()) coarse_age_ = 0;
   }
   coarse_stale_ = static_cast<double>(coarse_.extended()) >

@@ -106,12 +106,14 @@ struct TissueSettings {
   int two_level_after = 12;
   // The two-level preconditioner is rebuilt (aggregates and coarse factorisation) at the step after
   // one that needed more two-level iterations than this, or after the step in which cuts brought the
-  // nodes added since the last build above coarse_rebuild_fraction of the active nodes, or one
-  // aggregate above coarse_regroup_growth times the nodes it was built with. The last keeps the
-  // smoother's lambda estimate (fem/two_level.hpp): the nodes a cut creates join the aggregate of
-  // their parent, and the aggregates along a deep incision grow to 5-10 times the median size
-  // (100-200 nodes at 20 thousand tetrahedra): one rigid motion for the tissue around the crack
-  // tip, which deforms the most.
+  // nodes added since the last build above coarse_rebuild_fraction of the active nodes. The nodes a
+  // cut creates join the aggregate of their parent, and the aggregates along a deep incision would
+  // grow to 5-10 times the median size (100-200 nodes at 20 thousand tetrahedra): one rigid motion
+  // for the tissue around the crack tip, which deforms the most. An aggregate grown above
+  // coarse_regroup_growth times the nodes it was built (or last split) with is split into pieces of
+  // that size in the step's split (fem/two_level.hpp); with a smoothed prolongator, which is not
+  // split, the preconditioner is regrouped instead at the next step (a rebuild that keeps the
+  // smoother's lambda estimate).
   int coarse_rebuild_iterations = 40;
   double coarse_rebuild_fraction = 0.1;
   double coarse_regroup_growth = 2;

@@ -85,6 +85,7 @@ void TwoLevelPreconditioner::reserve_nodes(std::size_t n) {
   prolongator_.resize(n);
   for (auto* v : {&residual_, &direction_, &next_, &offset_}) v->resize(n, Vec3::Zero());
   seen_.resize(n, 0);
+  piece_of_.resize(n, -1);
 }
 
 // Largest Ritz value of D^{-1} A from the CG coefficients of block-Jacobi CG (Saad 2003, 6.7.3):
@@ -142,6 +143,7 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
   prolongator_.resize(nn);
   for (std::vector<Entry>& row : prolongator_) row.clear();  // keeps their storage
   seen_.assign(nn, 0);
+  piece_of_.assign(nn, -1);
   extended_ = 0;
   const auto usable = [&](std::uint32_t j) { return j < nn && active[j]; };
 
@@ -365,22 +367,87 @@ void TwoLevelPreconditioner::touch(std::span<const std::uint32_t> nodes) {
     if (ag < outdated_.size()) outdated_[ag] = 1;
 }
 
+bool TwoLevelPreconditioner::grown(std::uint32_t ag, const Parts& found, double growth) const {
+  if (!(growth > 0)) return false;
+  std::size_t n = 0;
+  for (const auto& part : found.parts) n += part.size();
+  return static_cast<double>(n) > growth * std::max<double>(1, built_size_[ag]);
+}
+
 bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
-                                    std::span<const std::uint32_t> nodes) {
+                                    std::span<const std::uint32_t> nodes, double growth) {
   if (smoothed_ || members_.empty()) return false;
   reserve_nodes(a.size());
   Parts found;
   for (const std::uint32_t ag : touched(nodes)) {
     connected_parts(ag, a, active, found);
-    if (found.parts.size() > 1) return true;
+    if (found.parts.size() > 1 || grown(ag, found, growth)) return true;
   }
   return false;
+}
+
+void TwoLevelPreconditioner::grown_pieces(std::uint32_t ag, std::span<const BlockRow> a, Parts& found) {
+  const std::size_t size = std::max<std::size_t>(1, built_size_[ag]);
+  std::vector<std::vector<std::uint32_t>> pieces;
+  // piece_of_ (by node; -1 outside the parts) marks the part's nodes, then their pieces.
+  for (const auto& part : found.parts)
+    for (const std::uint32_t i : part) piece_of_[i] = -2;
+  for (const auto& part : found.parts) {
+    if (part.size() <= size) {
+      for (const std::uint32_t i : part) piece_of_[i] = static_cast<std::int32_t>(pieces.size());
+      pieces.push_back(part);
+      continue;
+    }
+    std::vector<std::uint32_t> sorted = part;
+    std::sort(sorted.begin(), sorted.end());
+    const std::size_t first_piece = pieces.size();
+    for (const std::uint32_t seed : sorted) {
+      if (piece_of_[seed] != -2) continue;
+      const auto id = static_cast<std::int32_t>(pieces.size());
+      pieces.emplace_back(1, seed);
+      piece_of_[seed] = id;
+      std::vector<std::uint32_t>& piece = pieces.back();
+      for (std::size_t k = 0; k < piece.size() && piece.size() < size; ++k)
+        for (const std::uint32_t j : a[piece[k]].cols)
+          if (j < piece_of_.size() && piece_of_[j] == -2 && piece.size() < size) {
+            piece_of_[j] = id;
+            piece.push_back(j);
+          }
+    }
+    // Small pieces (what the larger ones left between them) join a neighbouring piece of the part.
+    for (std::size_t p = first_piece; p < pieces.size(); ++p) {
+      if (2 * pieces[p].size() >= size || pieces[p].empty()) continue;
+      std::int32_t into = -1;
+      for (const std::uint32_t i : pieces[p]) {
+        for (const std::uint32_t j : a[i].cols)
+          if (j < piece_of_.size() && piece_of_[j] >= static_cast<std::int32_t>(first_piece) &&
+              piece_of_[j] != static_cast<std::int32_t>(p) &&
+              pieces[static_cast<std::size_t>(piece_of_[j])].size() > 0) {
+            into = piece_of_[j];
+            break;
+          }
+        if (into >= 0) break;
+      }
+      if (into < 0) continue;
+      auto& target = pieces[static_cast<std::size_t>(into)];
+      for (const std::uint32_t i : pieces[p]) {
+        piece_of_[i] = into;
+        target.push_back(i);
+      }
+      pieces[p].clear();
+    }
+  }
+  for (const auto& piece : pieces)
+    for (const std::uint32_t i : piece) piece_of_[i] = -1;
+  std::erase_if(pieces, [](const std::vector<std::uint32_t>& p) { return p.empty(); });
+  found.parts = std::move(pieces);
 }
 
 std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
                                                   std::span<const std::uint8_t> active,
                                                   std::span<const std::uint32_t> nodes,
-                                                  std::span<const Vec3> x, parallel::Team& team, bool whole) {
+                                                  std::span<const Vec3> x, parallel::Team& team, bool whole,
+                                                  double growth) {
   split_whole_ = false;
   if (smoothed_ || members_.empty()) return 0;
   reserve_nodes(a.size());
@@ -389,6 +456,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
   Parts found;
   for (const std::uint32_t ag : touched(nodes)) {
     connected_parts(ag, a, active, found);
+    if (grown(ag, found, growth)) grown_pieces(ag, a, found);
     auto& parts = found.parts;
     if (parts.size() < 2) continue;
     if (ag < outdated_.size()) outdated_[ag] = 1;  // its row is recomputed (below)

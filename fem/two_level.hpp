@@ -62,6 +62,10 @@
 // of 5.1 (co-rotational). A cycle costs 2 m products with A; the smoother's vector updates are
 // fused into those row loops.
 //
+// The same split divides an aggregate that the nodes of cuts grew (extend()) past a given multiple
+// of its size into connected pieces of that size: the crack tip's aggregates would otherwise hold
+// the tissue that deforms the most in one rigid motion, and be rebuilt with everything else.
+//
 // Everything is deterministic: aggregates are grown in node slot order, every sum has a fixed order
 // and the parallel loops write disjoint data, so results do not depend on the thread count.
 #pragma once
@@ -105,11 +109,14 @@ class TwoLevelPreconditioner {
   // Splits each aggregate holding one of `nodes` (the rows a cut rebuilt) that the current
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
   // nodes at x, and then updates Ac (above): where it recomputes blocks they are those of
-  // P^T A P, the others are kept; with whole = true it recomputes all. Returns the number of
-  // aggregates added. Not when build() smoothed the prolongator (returns 0). Allocates.
+  // P^T A P, the others are kept; with whole = true it recomputes all. With growth > 0 a part that
+  // the nodes cuts created (extend()) made larger than growth times the aggregate's size when it was
+  // built or last split is divided too, into connected pieces of about that size (grown_pieces()).
+  // Returns the number of aggregates added. Not when build() smoothed the prolongator (returns 0).
+  // Allocates.
   std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                             std::span<const std::uint32_t> nodes, std::span<const Vec3> x,
-                            parallel::Team& team, bool whole = false);
+                            parallel::Team& team, bool whole = false, double growth = 0);
 
   // The rows of A of `nodes` changed (a cut rebuilt them): the block rows of Ac of their aggregates
   // are out of date (split_severed() recomputes those).
@@ -117,7 +124,7 @@ class TwoLevelPreconditioner {
 
   // Whether split_severed() would split an aggregate (without changing anything).
   bool severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
-              std::span<const std::uint32_t> nodes);
+              std::span<const std::uint32_t> nodes, double growth = 0);
 
   // A node born after build() joins the aggregate of `parent`, with that aggregate's rigid modes
   // evaluated at x. Ac is kept (stale, still positive definite).
@@ -180,6 +187,12 @@ class TwoLevelPreconditioner {
     std::vector<std::uint32_t> stack;
   };
   [[nodiscard]] std::vector<std::uint32_t> touched(std::span<const std::uint32_t> nodes) const;
+  // Whether aggregate ag's active members outnumber growth times its size when built or last split.
+  [[nodiscard]] bool grown(std::uint32_t ag, const Parts& found, double growth) const;
+  // Divides each part of `found` that is grown into connected pieces of about the aggregate's built
+  // size: grown breadth-first from its first member in order, a piece under half that size joined
+  // to the piece of its first neighbour in order.
+  void grown_pieces(std::uint32_t ag, std::span<const BlockRow> a, Parts& found);
   void connected_parts(std::uint32_t ag, std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                        Parts& out);
 
@@ -210,7 +223,8 @@ class TwoLevelPreconditioner {
   Eigen::VectorXd rc_, ec_;
   // Smoother work vectors, by node slot.
   std::vector<Vec3> residual_, direction_, next_;
-  std::vector<std::uint8_t> seen_;  // split_severed(): visited nodes (all 0 between calls)
+  std::vector<std::uint8_t> seen_;      // split_severed(): visited nodes (all 0 between calls)
+  std::vector<std::int32_t> piece_of_;  // grown_pieces(): piece of a node (all -1 between calls)
 };
 
 }  // namespace scalpel
