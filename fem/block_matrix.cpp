@@ -40,12 +40,7 @@ void BlockRows::set(std::size_t i, std::span<const std::uint32_t> cols) {
   if (cols.size() <= room_[i]) {
     std::copy(cols.begin(), cols.end(), cols_.begin() + static_cast<std::ptrdiff_t>(start_[i]));
     std::fill_n(blocks_.begin() + static_cast<std::ptrdiff_t>(start_[i]), cols.size(), Mat3::Zero());
-    BlockRow& row = rows_[i];
-    row.cols = {cols_.data() + start_[i], cols.size()};
-    row.blocks = {blocks_.data() + start_[i], cols.size()};
-    row.diag = cols.empty()
-                   ? 0
-                   : static_cast<std::uint32_t>(std::lower_bound(cols.begin(), cols.end(), i) - cols.begin());
+    view(i, cols);
     return;
   }
   roomed_ -= room_[i];
@@ -73,6 +68,11 @@ void BlockRows::place(std::size_t i, std::span<const std::uint32_t> cols) {
   cols_.insert(cols_.end(), cols.begin(), cols.end());
   cols_.resize(cols_.size() + kSlack, 0);
   blocks_.resize(cols_.size(), Mat3::Zero());
+  view(i, cols);
+}
+
+// Row i's view of its place in the storage, which holds `cols`.
+void BlockRows::view(std::size_t i, std::span<const std::uint32_t> cols) {
   BlockRow& row = rows_[i];
   row.cols = {cols_.data() + start_[i], cols.size()};
   row.blocks = {blocks_.data() + start_[i], cols.size()};

@@ -28,7 +28,9 @@ struct BlockRow {
 // A row is set whole (its columns; its blocks start at zero). It keeps its place while its columns
 // fit in its room (its size when it was placed, and kSlack more: a cut adds a few columns to the
 // rows around it); a row that outgrows its room moves to the end. Once the rooms left behind hold
-// more than an eighth of the storage, every row is placed again in row order. Not thread-safe.
+// more than an eighth of the storage, every row is placed again in row order. set() moves rows:
+// one call at a time, with columns that do not point into this storage; threads may write the
+// blocks of different rows at once.
 class BlockRows {
  public:
   static constexpr std::size_t kSlack = 4;
@@ -58,6 +60,7 @@ class BlockRows {
 
  private:
   void place(std::size_t i, std::span<const std::uint32_t> cols);
+  void view(std::size_t i, std::span<const std::uint32_t> cols);
   void repack();
   void point_views();
 

@@ -182,7 +182,6 @@ const TetRest& TissueModel::tet_rest(TetId t) const {
   return rest_[t.index];
 }
 
-// Rebuilds one node row: its incident elements, sparsity pattern and lumped mass.
 // Row i's columns (into row_cols_[i], placed by refresh()), incident elements, mass and state.
 void TissueModel::rebuild_row(std::uint32_t i) {
   std::vector<std::uint32_t>& cols = row_cols_[i];
@@ -559,8 +558,9 @@ StepStats TissueModel::solve_step(double dt, bool last) {
 // The case of this step, decided before it runs: settled (no rows changed since the last applied
 // solve), after a cut (changed rows: a local solve on their region first, and the two-level
 // preconditioner extended by the new nodes unless it is due for a rebuild), severing (the cut
-// severs a coarse aggregate, which is split beside the local solve), or rebuild due (the
-// preconditioner was found stale at an earlier step: rebuilt now, beside the local solve if any).
+// severs a coarse aggregate or grew one past coarse_regroup_growth, which is split beside the local
+// solve), or rebuild due (the preconditioner was found stale at an earlier step: rebuilt now,
+// beside the local solve if any).
 TissueModel::StepPlan TissueModel::plan_step() {
   StepPlan p;
   p.two_level = settings_.preconditioner == Preconditioner::TwoLevel;
@@ -572,8 +572,8 @@ TissueModel::StepPlan TissueModel::plan_step() {
     for (const auto& [n, parent] : born_) coarse_.extend(n, parent, mesh_.positions()[n]);
     coarse_.touch(changed_);  // their coarse rows are out of date (the next split recomputes them)
   }
-  // A cut that severs a coarse aggregate: the split runs beside the local solve, whose region then
-  // has fewer rings.
+  // A cut that severs a coarse aggregate, or grows one past its limit: the split runs beside the
+  // local solve, whose region then has fewer rings.
   p.severs = p.extend && coarse_.severs(rows_, active_, changed_, settings_.coarse_regroup_growth);
   // After a topology change: the local solve first (see tissue.hpp), on this region.
   p.region = p.changed && local_region(changed_, p.active_count,
@@ -581,8 +581,8 @@ TissueModel::StepPlan TissueModel::plan_step() {
                                                 : settings_.local_rings);
   // The two-level preconditioner: built at the first step, kept across steps, extended by the nodes
   // a cut created, and rebuilt at the step after the one that found it stale (too many two-level
-  // iterations, too many extended nodes, an aggregate grown too large): the step that made the
-  // change does not also pay for the rebuild.
+  // iterations, too many extended nodes; with a smoothed prolongator, an aggregate grown too large):
+  // the step that made the change does not also pay for the rebuild.
   p.rebuild = p.two_level && (coarse_stale_ || coarse_regroup_) && !p.extend;
   return p;
 }
@@ -636,8 +636,9 @@ bool TissueModel::warm_start(const StepPlan& plan, double& rr, double& b_norm) {
   return std::isfinite(b_norm) && std::isfinite(rr);
 }
 
-// An aggregate the cut severed would tie both sides of the crack to one rigid motion. severs
-// already searched the touched aggregates: without it there is nothing to split.
+// An aggregate the cut severed would tie both sides of the crack to one rigid motion, and one the
+// cuts' nodes grew holds the tissue that deforms most in one. severs already searched the touched
+// aggregates: without it there is nothing to split.
 void TissueModel::split_coarse(const StepPlan& plan, parallel::Team& split_team, StepStats& st) {
   if (plan.severs) {
     const bool whole = coarse_age_ > kCoarseRefreshSteps;
@@ -647,7 +648,9 @@ void TissueModel::split_coarse(const StepPlan& plan, parallel::Team& split_team,
   }
   coarse_stale_ = static_cast<double>(coarse_.extended()) >
                   settings_.coarse_rebuild_fraction * static_cast<double>(plan.active_count);
-  coarse_regroup_ = !coarse_stale_ && coarse_.growth() > settings_.coarse_regroup_growth;
+  // A smoothed prolongator is not split: its grown aggregates are regrouped by a rebuild.
+  coarse_regroup_ =
+      !coarse_stale_ && coarse_.smoothed() && coarse_.growth() > settings_.coarse_regroup_growth;
 }
 
 void TissueModel::build_coarse(parallel::Team& build_team, std::vector<double>& build_partial,

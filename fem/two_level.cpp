@@ -232,6 +232,7 @@ bool TwoLevelPreconditioner::build(std::span<const BlockRow> a, std::span<const 
       members_[prolongator_[i][k].aggregate].push_back({i, static_cast<std::uint32_t>(k)});
   built_size_.resize(na);
   for (std::size_t ag = 0; ag < na; ++ag) built_size_[ag] = static_cast<std::uint32_t>(members_[ag].size());
+  piece_size_ = built_size_;
 
   residual_.assign(nn, Vec3::Zero());
   direction_.assign(nn, Vec3::Zero());
@@ -371,7 +372,7 @@ bool TwoLevelPreconditioner::grown(std::uint32_t ag, const Parts& found, double 
   if (!(growth > 0)) return false;
   std::size_t n = 0;
   for (const auto& part : found.parts) n += part.size();
-  return static_cast<double>(n) > growth * std::max<double>(1, built_size_[ag]);
+  return static_cast<double>(n) > growth * std::max<double>(1, piece_size_[ag]);
 }
 
 bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
@@ -381,13 +382,14 @@ bool TwoLevelPreconditioner::severs(std::span<const BlockRow> a, std::span<const
   Parts found;
   for (const std::uint32_t ag : touched(nodes)) {
     connected_parts(ag, a, active, found);
-    if (found.parts.size() > 1 || grown(ag, found, growth)) return true;
+    if (grown(ag, found, growth)) grown_pieces(ag, a, found);
+    if (found.parts.size() > 1) return true;
   }
   return false;
 }
 
 void TwoLevelPreconditioner::grown_pieces(std::uint32_t ag, std::span<const BlockRow> a, Parts& found) {
-  const std::size_t size = std::max<std::size_t>(1, built_size_[ag]);
+  const std::size_t size = std::max<std::size_t>(1, piece_size_[ag]);
   std::vector<std::vector<std::uint32_t>> pieces;
   // piece_of_ (by node; -1 outside the parts) marks the part's nodes, then their pieces.
   for (const auto& part : found.parts)
@@ -467,6 +469,7 @@ std::size_t TwoLevelPreconditioner::split_severed(std::span<const BlockRow> a,
       if (k > 0) {
         members_.emplace_back();
         built_size_.emplace_back();
+        piece_size_.push_back(piece_size_[ag]);
         centre_.emplace_back();
         modes_.emplace_back();
         follows.push_back(ag);

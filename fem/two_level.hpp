@@ -110,8 +110,9 @@ class TwoLevelPreconditioner {
   // pattern of a no longer connects into its connected parts, each with the rigid modes of its own
   // nodes at x, and then updates Ac (above): where it recomputes blocks they are those of
   // P^T A P, the others are kept; with whole = true it recomputes all. With growth > 0 a part that
-  // the nodes cuts created (extend()) made larger than growth times the aggregate's size when it was
-  // built or last split is divided too, into connected pieces of about that size (grown_pieces()).
+  // the nodes cuts created (extend()) made larger than growth times the aggregate's size at build()
+  // (that of the aggregate it was split from, for a part) is divided too, into connected pieces of
+  // about that size (grown_pieces()).
   // Returns the number of aggregates added. Not when build() smoothed the prolongator (returns 0).
   // Allocates.
   std::size_t split_severed(std::span<const BlockRow> a, std::span<const std::uint8_t> active,
@@ -150,6 +151,8 @@ class TwoLevelPreconditioner {
   [[nodiscard]] bool split_whole() const { return split_whole_; }
   // The largest number of nodes an aggregate holds over the number it was built (or split) with.
   [[nodiscard]] double growth() const;
+  // Whether build() smoothed the prolongator (then split_severed() splits nothing).
+  [[nodiscard]] bool smoothed() const { return smoothed_; }
   // Aggregate of node slot i, -1 if none.
   [[nodiscard]] std::int32_t aggregate(std::uint32_t i) const {
     return i < aggregate_.size() ? aggregate_[i] : -1;
@@ -187,11 +190,11 @@ class TwoLevelPreconditioner {
     std::vector<std::uint32_t> stack;
   };
   [[nodiscard]] std::vector<std::uint32_t> touched(std::span<const std::uint32_t> nodes) const;
-  // Whether aggregate ag's active members outnumber growth times its size when built or last split.
+  // Whether aggregate ag's active members (found) outnumber growth times its piece size.
   [[nodiscard]] bool grown(std::uint32_t ag, const Parts& found, double growth) const;
-  // Divides each part of `found` that is grown into connected pieces of about the aggregate's built
-  // size: grown breadth-first from its first member in order, a piece under half that size joined
-  // to the piece of its first neighbour in order.
+  // Divides each part of `found` larger than the aggregate's piece size into connected pieces of
+  // about that size: grown breadth-first from its lowest unassigned node, a piece under half that
+  // size joined to the piece of its first neighbour in order (so the pieces may be fewer than two).
   void grown_pieces(std::uint32_t ag, std::span<const BlockRow> a, Parts& found);
   void connected_parts(std::uint32_t ag, std::span<const BlockRow> a, std::span<const std::uint8_t> active,
                        Parts& out);
@@ -210,6 +213,10 @@ class TwoLevelPreconditioner {
   // centroid, orthonormalising map V L^{-1/2}.
   std::vector<std::vector<Member>> members_;
   std::vector<std::uint32_t> built_size_;  // per aggregate: its member count at build() or split
+  // Per aggregate: the member count at build() of the aggregate it was split from (or its own):
+  // the size of the pieces a grown one is divided into, so that the slivers a cut leaves do not
+  // make ever smaller pieces.
+  std::vector<std::uint32_t> piece_size_;
   // Per aggregate: its members or their rows of A changed since its block row of Ac was computed.
   std::vector<std::uint8_t> outdated_;
   std::vector<Vec3> centre_;

@@ -76,7 +76,9 @@ class SurfaceProbe {
   // positions visit only the triangles near the point or the line (a tree of boxes, refitted, not
   // rebuilt). The owner calls it again whenever the positions move: a query in positions the probe
   // was not fitted to tests every triangle, but one in positions that moved since the fit would
-  // miss triangles. Queries find the same triangle either way: among equals, the first in order.
+  // miss triangles. Queries find the same triangle either way: among equals, the first in order
+  // (but for a line that grazes a triangle, nearly in its plane, where rounding may place the
+  // crossing anywhere along the line). Queries share scratch: one thread at a time.
   void fit(const TetMesh& mesh);
   // Whether the queries in `x` would use boxes that no longer hold its triangles: x moved since the
   // last fit (for checks; O(triangles)).
@@ -118,7 +120,7 @@ class SurfaceProbe {
   std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented
   Boxes current_, rest_;
   double margin_ = 0;  // [m] each box grows by, beyond the rounding of the queries' tests
-  mutable std::vector<std::int32_t> stack_;  // scratch of the tree's walks
+  mutable std::vector<std::int32_t> stack_;  // scratch of the tree's walks: one query at a time
   std::vector<std::int32_t> order_;          // scratch of the refit
 };
 

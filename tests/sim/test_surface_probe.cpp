@@ -77,7 +77,6 @@ TEST_CASE("surface probe: queries in fitted positions find what a test of every 
   CHECK(hits > 1000);
 
   // The tissue moves and the probe is fitted again.
-  // The tissue moves and the probe is fitted again.
   for (Vec3& x : mesh.positions()) x += Vec3(0.001, -0.0005, 0.002);
   CHECK(probe.stale(mesh.positions()));
   probe.fit(mesh);
