@@ -508,8 +508,10 @@ TEST_CASE("the step is bit-identical run to run and for any thread count" * doct
   for (const int threads : {1, 2, 2}) {
     TetMesh m = skin_fat_slab(12);
     const std::vector<Material> mats = prestressed(2, 1.1);
-    // Aggregates grown past 1.1 times their size are regrouped at the next step.
-    TissueModel model(m, mats, {.threads = threads, .coarse_regroup_growth = 1.1});
+    // Aggregates grown past 1.1 times their size are split at the cut's step; cuts that extend more
+    // than 1 % of the nodes make the preconditioner stale, rebuilt at the next step.
+    TissueModel model(m, mats,
+                      {.threads = threads, .coarse_rebuild_fraction = 0.01, .coarse_regroup_growth = 1.1});
     fix_nodes(m, model, [](const Vec3& x) { return std::abs(x.z() + 0.006) < 1e-12; });
     int cycles = 0;
     for (int k = 0; k < 10; ++k) cycles += model.step(0.01).cycle_iterations;
@@ -523,7 +525,7 @@ TEST_CASE("the step is bit-identical run to run and for any thread count" * doct
     CHECK(cut.aggregates_split > 0);
     CHECK_FALSE(cut.preconditioner_built);
     cycles += cut.cycle_iterations;
-    // A second incision, at the step that regroups: the rebuild runs beside the local solve.
+    // A second incision, at the step that rebuilds: the rebuild runs beside the local solve.
     make_incision(m, model, 0.008, 0.002, 0.0075);
     const StepStats second = model.step(0.01);
     CHECK(second.preconditioner_built);
@@ -632,10 +634,11 @@ TEST_CASE("after an incision the two-level preconditioner needs far fewer CG ite
   CHECK(2 * after[1].cg_iterations < after[0].cg_iterations);
 }
 
-TEST_CASE("an aggregate a cut grew past coarse_regroup_growth is rebuilt at the next step" *
+TEST_CASE("an aggregate a cut grew past coarse_regroup_growth is not rebuilt whole at the next step" *
           doctest::test_suite("slow")) {
   // The duplicated nodes of an 8 mm incision join the aggregates of their originals: those along
-  // it grow (here past 1.1 times their size; the default 2 is met along a deep progressive cut).
+  // it grow (here past 1.1 times their size). An aggregate whose active nodes grew so is split in
+  // the cut's step (tests/fem/test_two_level.cpp); the preconditioner is not rebuilt for it.
   const auto run = [](double growth) {
     TetMesh m = skin_fat_slab(16);
     const std::vector<Material> mats = prestressed(2, 1.1);
@@ -648,14 +651,8 @@ TEST_CASE("an aggregate a cut grew past coarse_regroup_growth is rebuilt at the 
     for (const StepStats& st : after) CHECK(st.status == StepStatus::Converged);
     return after;
   };
-  const std::vector<StepStats> regrouped = run(1.1), kept = run(1e9);
-  CHECK_FALSE(regrouped[0].preconditioner_built);  // the cut step only extends
-  CHECK(regrouped[1].preconditioner_built);
-  CHECK_FALSE(regrouped[2].preconditioner_built);
-  for (const StepStats& st : kept) CHECK_FALSE(st.preconditioner_built);
-  CAPTURE(regrouped[1].cycle_iterations);
-  CAPTURE(kept[1].cycle_iterations);
-  CHECK(regrouped[1].cycle_iterations < kept[1].cycle_iterations);
+  for (const double growth : {1.1, 1e9})
+    for (const StepStats& st : run(growth)) CHECK_FALSE(st.preconditioner_built);
 }
 
 TEST_CASE("after a cut the solve starts at the cut: the same motion in fewer cycle iterations" *
