@@ -12,6 +12,11 @@ namespace scalpel {
 
 SurfaceProbe::SurfaceProbe(const TetMesh& uncut) {
   for (const BoundaryFace& f : boundary_faces(uncut)) faces_.push_back(f.nodes);
+  // Far above the rounding of the tests below (relative 1e-16 of the mesh's size) and far below
+  // anything a blade resolves.
+  Aabb all;
+  for (std::size_t f = 0; f < faces_.size(); ++f) all.extend(tight_box(uncut.rest_positions(), f));
+  margin_ = faces_.empty() ? 0.0 : 1e-9 * (all.hi - all.lo).norm();
 }
 
 void SurfaceProbe::drop_faces_of(std::span<const std::uint32_t> removed) {
@@ -25,23 +30,20 @@ void SurfaceProbe::drop_faces_of(std::span<const std::uint32_t> removed) {
   rest_ = {};
 }
 
-Aabb SurfaceProbe::face_box(const std::vector<Vec3>& x, std::size_t f) const {
+Aabb SurfaceProbe::tight_box(const std::vector<Vec3>& x, std::size_t f) const {
   Aabb b;
   for (const std::uint32_t n : faces_[f]) b.extend(x[n]);
+  return b;
+}
+
+Aabb SurfaceProbe::face_box(const std::vector<Vec3>& x, std::size_t f) const {
+  Aabb b = tight_box(x, f);
   b.lo.array() -= margin_;
   b.hi.array() += margin_;
   return b;
 }
 
 void SurfaceProbe::fit(const TetMesh& mesh) {
-  if (margin_ == 0 && !faces_.empty()) {
-    // Far above the rounding of the tests below (relative 1e-16 of the mesh's size) and far below
-    // anything a blade resolves.
-    Aabb all;
-    for (const auto& f : faces_)
-      for (const std::uint32_t n : f) all.extend(mesh.rest_positions()[n]);
-    margin_ = 1e-9 * (all.hi - all.lo).norm();
-  }
   fit(current_, mesh.positions());
   // The triangles' corners never move at rest.
   if (!rest_.fits(mesh.rest_positions()) || rest_.tree.leaf_count() != faces_.size())
@@ -65,11 +67,8 @@ void SurfaceProbe::fit(Boxes& boxes, const std::vector<Vec3>& x) {
 bool SurfaceProbe::stale(const std::vector<Vec3>& x) const {
   const Boxes* b = boxes_for(x);
   if (!b) return false;  // every triangle is tested
-  for (std::size_t f = 0; f < faces_.size(); ++f) {
-    Aabb tight;
-    for (const std::uint32_t n : faces_[f]) tight.extend(x[n]);
-    if (!b->tree.node(b->leaves[f]).box.contains(tight)) return true;
-  }
+  for (std::size_t f = 0; f < faces_.size(); ++f)
+    if (!b->tree.node(b->leaves[f]).box.contains(tight_box(x, f))) return true;
   return false;
 }
 

@@ -115,11 +115,12 @@ class SurfaceProbe {
   };
   void fit(Boxes& boxes, const std::vector<Vec3>& x);
   [[nodiscard]] const Boxes* boxes_for(const std::vector<Vec3>& x) const;
-  [[nodiscard]] Aabb face_box(const std::vector<Vec3>& x, std::size_t f) const;
+  [[nodiscard]] Aabb tight_box(const std::vector<Vec3>& x, std::size_t f) const;
+  [[nodiscard]] Aabb face_box(const std::vector<Vec3>& x, std::size_t f) const;  // tight, and margin_
 
   std::vector<std::array<std::uint32_t, 3>> faces_;  // outward-oriented
   Boxes current_, rest_;
-  double margin_ = 0;  // [m] each box grows by, beyond the rounding of the queries' tests
+  double margin_ = 0;  // [m] each box grows by, beyond the rounding of the queries' tests (set once)
   mutable std::vector<std::int32_t> stack_;  // scratch of the tree's walks: one query at a time
   std::vector<std::int32_t> order_;          // scratch of the refit
 };
