@@ -8,6 +8,7 @@
 //   ./build/release/bench/bench_fem --benchmark_filter=AfterCut   # medians of 5 repetitions
 //   ./build/release/bench/bench_fem --benchmark_filter=Progressive
 //   ./build/release/bench/bench_fem --benchmark_filter=CoarseFactorisation
+//   ./build/release/bench/bench_fem --benchmark_filter=CorotationalRow   # the assembly's kernel
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -24,6 +25,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "fem/block_cholesky.hpp"
+#include "fem/row_kernel.hpp"
 #include "fem/tissue.hpp"
 #include "mesh/generators.hpp"
 #include "sim/scenario.hpp"
@@ -416,6 +418,39 @@ void BM_CoarseFactorisation(benchmark::State& state) {
   state.counters["solve_ms"] = 1e3 * solve / count;
 }
 
+// The assembly's inner kernel (fem/row_kernel.hpp) on element states from a cache-resident pool:
+// arithmetic only, no waiting for memory. Per element row (4 blocks); 0 = portable (the scalar block
+// functions), 1 = AVX2 (skipped where the processor lacks it).
+void BM_CorotationalRow(benchmark::State& state) {
+  const bool avx2 = state.range(0) == 1;
+  if (avx2 && !avx2_available()) {
+    state.SkipWithError("no AVX2 on this processor");
+    return;
+  }
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  Material m;
+  m.prestress = 1.1;
+  std::vector<CorotationalState> states(64);
+  for (CorotationalState& s : states) {
+    std::array<Vec3, 4> x{Vec3(0, 0, 0), Vec3(1e-3, 0, 0), Vec3(0, 1e-3, 0), Vec3(0, 0, 1e-3)};
+    const TetRest rest = make_tet_rest(x, m, 0.05);
+    for (Vec3& p : x) p += 1e-3 * Vec3(u(rng), u(rng), u(rng));
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    evaluate_corotational(rest, x, q, s);
+  }
+  std::array<Mat3, 4> k;
+  for (Mat3& b : k) b.setZero();
+  const std::array<Mat3*, 4> out{&k[0], &k[1], &k[2], &k[3]};
+  const CorotationalRowKernel kernel = corotational_row_kernel(avx2 ? RowIsa::Avx2 : RowIsa::Portable);
+  std::size_t i = 0;
+  for (auto _ : state) {
+    kernel(states[i % states.size()], static_cast<int>(i % 4), 1e-4, out);
+    benchmark::DoNotOptimize(k);
+    ++i;
+  }
+}
+
 // cells per side: 12 -> 5184, 24 -> 20736, 37 -> 49284 tetrahedra; second argument 0 = FEM,
 // 1 = mass-spring; third (after a cut) the preconditioner, as above.
 BENCHMARK(BM_TissueStep)
@@ -440,6 +475,7 @@ BENCHMARK(BM_TissueProgressiveIncision)
     ->Unit(benchmark::kMillisecond)
     ->UseManualTime()
     ->Iterations(1);
+BENCHMARK(BM_CorotationalRow)->DenseRange(0, 1);
 BENCHMARK(BM_CoarseFactorisation)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 }  // namespace

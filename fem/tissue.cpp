@@ -1,10 +1,12 @@
 #include "fem/tissue.hpp"
 
 #include "fem/parallel.hpp"
+#include "fem/row_kernel.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -21,6 +23,9 @@ TissueModel::TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueS
   for (std::size_t r = 0; r < materials_.size(); ++r)
     if (const auto err = validate_material(materials_[r]))
       throw std::invalid_argument("materials[" + std::to_string(r) + "]." + err->field + ": " + err->message);
+  if (materials_.size() > std::numeric_limits<std::uint16_t>::max())  // Entry::region
+    throw std::invalid_argument("materials: " + std::to_string(materials_.size()) +
+                                " regions, at most 65535");
   if (settings_.threads < 1) settings_.threads = 1;
   stiffness_factor_.resize(materials_.size());
   grow();
@@ -208,9 +213,9 @@ void TissueModel::rebuild_row(std::uint32_t i) {
   bool supported = false;
   for (const std::uint32_t t : tets) {
     supported = supported || rest_[t].quality >= settings_.support_quality;
-    Entry e{t, 0, {}};
-    for (int a = 0; a < 4; ++a) {
-      const std::uint32_t n = tet_vertices_[t][static_cast<size_t>(a)];
+    Entry e{t, 0, static_cast<std::uint16_t>(tet_region_[t]), {}};
+    for (std::uint16_t a = 0; a < 4; ++a) {
+      const std::uint32_t n = tet_vertices_[t][a];
       if (n == i) e.local = a;
       e.block[static_cast<size_t>(a)] = col_of(n);
     }
@@ -282,7 +287,7 @@ std::size_t TissueModel::evaluate_elements(double& energy) {
 
 namespace {
 
-constexpr std::size_t kPrefetchAhead = 2;
+constexpr std::size_t kPrefetchAhead = 16;
 
 // Asks for every cache line t lies on, ahead of its use.
 template <class T>
@@ -301,9 +306,30 @@ void TissueModel::assemble(double dt) {
   const std::size_t nn = rows_.size();
   const bool corot = settings_.kind == TissueKind::Corotational;
   const auto& vel = mesh_.velocities();
+  const CorotationalRowKernel corot_row = corotational_row_kernel();
   for (std::size_t r = 0; r < materials_.size(); ++r)
     stiffness_factor_[r] = dt * materials_[r].damping_stiffness + dt * dt;
   for_chunks(team(), nn, [&](std::size_t, std::size_t begin, std::size_t end) {
+    // The element states of a row lie far apart (a row's tetrahedra span two layers of cells): a
+    // cursor runs kPrefetchAhead entries ahead of the assembly, across the ends of rows, and asks
+    // for each state before it is read.
+    std::size_t ahead_row = begin, ahead_entry = 0;
+    const auto prefetch_next = [&](std::size_t count) {
+      while (count > 0 && ahead_row < end) {
+        if (!active_[ahead_row] || ahead_entry >= entries_[ahead_row].size()) {
+          ++ahead_row;
+          ahead_entry = 0;
+          continue;
+        }
+        const std::uint32_t t = entries_[ahead_row][ahead_entry++].tet;
+        if (corot)
+          prefetch(corot_[t]);
+        else
+          prefetch(spring_[t]);
+        --count;
+      }
+    };
+    prefetch_next(kPrefetchAhead);
     for (std::size_t i = begin; i < end; ++i) {
       if (!active_[i]) {
         b_[i].setZero();
@@ -314,25 +340,14 @@ void TissueModel::assemble(double dt) {
       for (Mat3& blk : blocks) blk.setZero();
       Vec3 f = Vec3::Zero();
       // Per entry only the element's state is read (rest data and mass are per row or region).
-      const auto& row_entries = entries_[i];
-      for (std::size_t ei = 0; ei < row_entries.size(); ++ei) {
-        const Entry& e = row_entries[ei];
-        // The element states of a row lie far apart (a row's tetrahedra span two layers of cells):
-        // ask for the one two entries on while this one is added.
-        if (corot && ei + kPrefetchAhead < row_entries.size())
-          prefetch(corot_[row_entries[ei + kPrefetchAhead].tet]);
-        const double h = stiffness_factor_[static_cast<std::size_t>(tet_region_[e.tet])];
+      for (const Entry& e : entries_[i]) {
+        prefetch_next(1);
+        const double h = stiffness_factor_[e.region];
         if (corot) {
           const CorotationalState& s = corot_[e.tet];
           f += s.force.col(e.local);
-          const Vec3 ca = s.c.col(e.local);
-          const Vec3 u = (h * s.lambda_volume) * ca, w = (h * s.mu_volume) * ca;
-          const Mat3 n = twist_factor(s, e.local, h);
-          for (int b = 0; b < 4; ++b) {
-            Mat3& k = blocks[e.block[static_cast<size_t>(b)]];
-            add_corotational_block(k, u, w, s.c.col(b));
-            add_twist_block(k, n, s.c.col(b));
-          }
+          corot_row(s, e.local, h,
+                    {&blocks[e.block[0]], &blocks[e.block[1]], &blocks[e.block[2]], &blocks[e.block[3]]});
         } else {
           const MassSpringState& s = spring_[e.tet];
           f += s.force.col(e.local);

@@ -219,7 +219,8 @@ class TissueModel {
  private:
   struct Entry {  // one incident tetrahedron of a node row
     std::uint32_t tet;
-    int local;                           // the node's local vertex index a in the tet
+    std::uint16_t local;                 // the node's local vertex index a in the tet
+    std::uint16_t region;                // the tet's region: the row reads no per-tet array but the states
     std::array<std::uint32_t, 4> block;  // position in the row of the column of vertex b
   };
 
