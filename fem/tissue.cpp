@@ -36,37 +36,50 @@ TissueModel::TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueS
       dirty_[i] = 1;
       dirty_list_.push_back(i);
     }
+  // Every row's columns, entries and mass now, at load, not in the first step's frame (12 ms at 20
+  // thousand tetrahedra). Rows whose nodes are fixed or held later are rebuilt at the next step.
+  refresh();
 }
+
+namespace {
+
+// Resizes v to n, reserving twice n when it must move: the first grow (at construction) leaves room
+// for the slots cuts add, so the first cut does not copy every array of the model in its frame
+// (7.6 ms at 20 thousand tetrahedra). Room not yet used is address space only.
+template <class V, class... Fill>
+void grow_to(V& v, std::size_t n, const Fill&... fill) {
+  if (v.size() >= n) return;
+  if (v.capacity() < n) v.reserve(2 * n);
+  v.resize(n, fill...);
+}
+
+}  // namespace
 
 void TissueModel::grow() {
   const std::size_t nt = mesh_.tet_capacity();
   if (rest_.size() < nt) {
-    rest_.resize(nt);
-    rotation_.resize(nt, Eigen::Quaterniond::Identity());
-    tet_vertices_.resize(nt);
-    tet_region_.resize(nt, 0);
-    tet_on_.resize(nt, 0);
+    grow_to(rest_, nt);
+    grow_to(rotation_, nt, Eigen::Quaterniond::Identity());
+    grow_to(tet_vertices_, nt);
+    grow_to(tet_region_, nt, 0);
+    grow_to(tet_on_, nt, std::uint8_t{0});
     if (settings_.kind == TissueKind::Corotational)
-      corot_.resize(nt);
+      grow_to(corot_, nt);
     else
-      spring_.resize(nt);
+      grow_to(spring_, nt);
   }
   const std::size_t nn = mesh_.node_capacity();
   if (fixed_.size() < nn) {
-    fixed_.resize(nn, 0);
-    held_.resize(nn, 0);
-    prescribed_.resize(nn, 0);
-    active_.resize(nn, 0);
-    passenger_.resize(nn, 0);
-    dirty_.resize(nn, 0);
-    external_.resize(nn, Vec3::Zero());
-    mass_.resize(nn, 0.0);
-    mass_damping_.resize(nn, 0.0);
+    for (auto* v : {&fixed_, &held_, &prescribed_, &active_, &passenger_, &dirty_})
+      grow_to(*v, nn, std::uint8_t{0});
+    grow_to(external_, nn, Vec3::Zero());
+    grow_to(mass_, nn, 0.0);
+    grow_to(mass_damping_, nn, 0.0);
     rows_.grow(nn);
-    row_cols_.resize(nn);
-    entries_.resize(nn);
-    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_, &t_}) v->resize(nn, Vec3::Zero());
-    diag_inverse_.resize(nn, Mat3::Identity());
+    grow_to(row_cols_, nn);
+    grow_to(entries_, nn);
+    for (auto* v : {&b_, &v_, &r_, &z_, &p_, &q_, &dv_, &t_}) grow_to(*v, nn, Vec3::Zero());
+    grow_to(diag_inverse_, nn, Mat3::Identity());
   }
   const std::size_t chunks = std::max(chunk_count(nn), chunk_count(nt));
   if (partial_.size() < 3 * chunks) partial_.resize(3 * chunks, 0.0);
