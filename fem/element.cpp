@@ -1,5 +1,12 @@
 #include "fem/element.hpp"
 
+// Lanes pass by value only between fem/corotational_lanes.hpp's forced-inline functions, never
+// through a call: GCC's note that the ABI of a vector argument depends on AVX does not apply.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+#include "fem/corotational_lanes.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -63,77 +70,138 @@ TetRest make_tet_rest(const std::array<Vec3, 4>& x, const Material& m, double sl
 // strains up to 0.9): one below 1 mrad ends the iteration 5e-10 rad from R. Warm-started from the
 // last step, where a moving tissue's elements turn by up to a few mrad, that is one step for most.
 void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) {
-  if (!q.coeffs().allFinite() || q.norm() < 0.5) q.setIdentity();
-  for (int it = 0; it < max_iterations; ++it) {
-    const Mat3 r = q.toRotationMatrix();
-    const Mat3 g = r.transpose() * f;
-    const Vec3 two_a(g(2, 1) - g(1, 2), g(0, 2) - g(2, 0), g(1, 0) - g(0, 1));
-    const Mat3 s = 0.5 * (g + g.transpose());
-    Mat3 m = -s;
-    m.diagonal().array() += s.trace();
-    // Sylvester's criterion for m > 0.
-    const double m1 = m(0, 0), m2 = m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0), m3 = m.determinant();
-    const bool newton = m1 > 0 && m2 > 0 && m3 > 0;
-    const Vec3 phi = newton ? Vec3(m.inverse() * two_a) : Vec3(two_a / (std::abs(g.trace()) + 1e-300));
-    const double w = phi.norm();
-    if (!(w > 1e-15)) break;
-    q = q * Eigen::Quaterniond(Eigen::AngleAxisd(w, phi / w));
-    q.normalize();
-    if (newton && w < 1e-3) break;
-  }
+  lanes::M3<double> m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m.a[i][j] = f(i, j);
+  double wxyz[4] = {q.w(), q.x(), q.y(), q.z()};
+  lanes::extract_rotation(m, wxyz, max_iterations);
+  q = Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
 }
 
 namespace {
 
-// A symmetric 3x3 matrix is positive definite (Sylvester's criterion).
-bool positive_definite(const Mat3& m) {
-  return m(0, 0) > 0 && m(0, 0) * m(1, 1) - m(0, 1) * m(1, 0) > 0 && m.determinant() > 0;
+Mat3 to_mat3(const lanes::M3<double>& m) {
+  Mat3 out;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out(i, j) = m.a[i][j];
+  return out;
 }
 
-// The element's stress (held), force, energy and twist modes where no principal strain and not the volumetric
-// strain reach the strain limit, every pair of principal stresses sums to more than zero and every
-// pair of principal stretches to more than kTwistStretchFloor: then nothing is clamped, and the twist
-// matrix R (V/2) T U^-1 R^T, with T = tr(sigma) I - sigma and U = tr(S) I - S, has the eigenvalues
-// and eigenvectors the general case gives it (sigma and S = I + eps share their eigenvectors; T's
-// eigenvalues are sigma_i + sigma_j, U's s_i + s_j), with no eigen-decomposition. False, and
-// nothing written, where a condition fails.
-bool evaluate_unclamped(const TetRest& rest, const Mat3& r, const Mat3& eps, CorotationalState& out) {
-  const double tr = eps.trace();
-  if (!(std::abs(tr) < kStrainLimit)) return false;
-  if (!positive_definite(Mat3::Identity() * kStrainLimit - eps) ||
-      !positive_definite(Mat3::Identity() * kStrainLimit + eps))
-    return false;
-  Mat3 sigma = 2.0 * rest.mu * eps;
-  sigma.diagonal().array() += rest.lambda * tr;
-  Mat3 t = -sigma;
-  t.diagonal().array() += sigma.trace();
-  Mat3 u = -eps;
-  u.diagonal().array() += 2.0 + tr;  // tr(S) I - S with S = I + eps
-  Mat3 u_floor = u;
-  u_floor.diagonal().array() -= kTwistStretchFloor;
-  if (!positive_definite(t) || !positive_definite(u_floor)) return false;
-  const Mat3 local = (0.5 * rest.volume) * (t * u.inverse());
+// The element's state from an evaluation, the general case where something is clamped.
+void finish(const TetRest& rest, const lanes::Evaluation<double>& ev, bool unclamped,
+            CorotationalState& out) {
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 4; ++a) out.c(i, a) = ev.c[i][a];
+  out.lambda_volume = rest.volume * rest.lambda;
+  out.mu_volume = rest.volume * rest.mu;
+  if (!unclamped) {
+    corotational_stress_from_principal_axes(rest, to_mat3(ev.r), to_mat3(ev.eps), out);
+    return;
+  }
   out.held = false;
-  out.force.noalias() = -rest.volume * (r * sigma) * rest.grad;
-  out.energy = rest.volume * (rest.mu * eps.squaredNorm() + 0.5 * rest.lambda * tr * tr);
-  out.twist.noalias() = r * (0.5 * (local + local.transpose())) * r.transpose();
-  return true;
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 4; ++a) out.force(i, a) = ev.force[i][a];
+  out.energy = ev.energy;
+  out.twist = to_mat3(ev.twist);
 }
 
 }  // namespace
 
+// Where no principal strain and not the volumetric strain reach the strain limit, every pair of
+// principal stresses sums to more than zero and every pair of principal stretches to more than
+// kTwistStretchFloor, nothing is clamped, and the twist matrix R (V/2) T U^-1 R^T, with
+// T = tr(sigma) I - sigma and U = tr(S) I - S, has the eigenvalues and eigenvectors the general case
+// gives it (sigma and S = I + eps share their eigenvectors; T's eigenvalues are sigma_i + sigma_j,
+// U's s_i + s_j), with no eigen-decomposition (lanes::evaluate, fem/corotational_lanes.hpp).
 void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
                            CorotationalState& out) {
-  Mat3 f = Mat3::Zero();
-  for (int a = 0; a < 4; ++a) f.noalias() += x[static_cast<size_t>(a)] * rest.grad.col(a).transpose();
-  extract_rotation(f, q);
-  const Mat3 r = q.toRotationMatrix();
-  const Mat3 rtf = r.transpose() * f;
-  const Mat3 eps = 0.5 * (rtf + rtf.transpose()) - Mat3::Identity();
-  out.c.noalias() = r * rest.grad;
-  out.lambda_volume = rest.volume * rest.lambda;
-  out.mu_volume = rest.volume * rest.mu;
-  if (!evaluate_unclamped(rest, r, eps, out)) corotational_stress_from_principal_axes(rest, r, eps, out);
+  lanes::Element<double> e;
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 4; ++a) e.grad[i][a] = rest.grad(i, a);
+  e.volume = rest.volume;
+  e.mu = rest.mu;
+  e.lambda = rest.lambda;
+  for (std::size_t a = 0; a < 4; ++a)
+    for (int i = 0; i < 3; ++i) e.x[a][i] = x[a][i];
+  e.q[0] = q.w();
+  e.q[1] = q.x();
+  e.q[2] = q.y();
+  e.q[3] = q.z();
+  lanes::Evaluation<double> ev;
+  const bool unclamped = lanes::evaluate(e, ev);
+  q = Eigen::Quaterniond(e.q[0], e.q[1], e.q[2], e.q[3]);
+  finish(rest, ev, unclamped, out);
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+#define SCALPEL_ELEMENT_AVX2 1
+namespace {
+
+[[gnu::target("avx2")]] void evaluate_corotational4_avx2(const std::array<const TetRest*, 4>& rest,
+                                                         const std::array<const std::array<Vec3, 4>*, 4>& x,
+                                                         const std::array<Eigen::Quaterniond*, 4>& q,
+                                                         const std::array<CorotationalState*, 4>& out) {
+  lanes::Element<lanes::Lanes> e;
+  for (int l = 0; l < 4; ++l) {
+    const TetRest& r = *rest[static_cast<std::size_t>(l)];
+    for (int i = 0; i < 3; ++i)
+      for (int a = 0; a < 4; ++a) e.grad[i][a][l] = r.grad(i, a);
+    e.volume[l] = r.volume;
+    e.mu[l] = r.mu;
+    e.lambda[l] = r.lambda;
+    const std::array<Vec3, 4>& xl = *x[static_cast<std::size_t>(l)];
+    for (std::size_t a = 0; a < 4; ++a)
+      for (int i = 0; i < 3; ++i) e.x[a][i][l] = xl[a][i];
+    const Eigen::Quaterniond& ql = *q[static_cast<std::size_t>(l)];
+    e.q[0][l] = ql.w();
+    e.q[1][l] = ql.x();
+    e.q[2][l] = ql.y();
+    e.q[3][l] = ql.z();
+  }
+  lanes::Evaluation<lanes::Lanes> ev;
+  const lanes::Mask unclamped = lanes::evaluate(e, ev);
+  for (int l = 0; l < 4; ++l) {
+    lanes::Evaluation<double> one;
+    for (int i = 0; i < 3; ++i)
+      for (int a = 0; a < 4; ++a) {
+        one.c[i][a] = ev.c[i][a][l];
+        one.force[i][a] = ev.force[i][a][l];
+      }
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        one.twist.a[i][j] = ev.twist.a[i][j][l];
+        one.r.a[i][j] = ev.r.a[i][j][l];
+        one.eps.a[i][j] = ev.eps.a[i][j][l];
+      }
+    one.energy = ev.energy[l];
+    *q[static_cast<std::size_t>(l)] = Eigen::Quaterniond(e.q[0][l], e.q[1][l], e.q[2][l], e.q[3][l]);
+    finish(*rest[static_cast<std::size_t>(l)], one, unclamped[l] != 0, *out[static_cast<std::size_t>(l)]);
+  }
+}
+
+}  // namespace
+#endif
+
+bool evaluate_corotational4_vectorised() {
+#ifdef SCALPEL_ELEMENT_AVX2
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return avx2;
+#else
+  return false;
+#endif
+}
+
+void evaluate_corotational4(const std::array<const TetRest*, 4>& rest,
+                            const std::array<const std::array<Vec3, 4>*, 4>& x,
+                            const std::array<Eigen::Quaterniond*, 4>& q,
+                            const std::array<CorotationalState*, 4>& out, bool vectorised) {
+#ifdef SCALPEL_ELEMENT_AVX2
+  if (vectorised && evaluate_corotational4_vectorised()) {
+    evaluate_corotational4_avx2(rest, x, q, out);
+    return;
+  }
+#endif
+  for (std::size_t l = 0; l < 4; ++l) evaluate_corotational(*rest[l], *x[l], *q[l], *out[l]);
 }
 
 void corotational_stress_from_principal_axes(const TetRest& rest, const Mat3& r, const Mat3& eps,

@@ -173,6 +173,14 @@ struct CorotationalState {
 void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Eigen::Quaterniond& q,
                            CorotationalState& out);
 
+// Four elements at once, each with the bits evaluate_corotational() gives it alone: in the lanes of
+// AVX2 where the processor has it and `vectorised`, else one after the other.
+void evaluate_corotational4(const std::array<const TetRest*, 4>& rest,
+                            const std::array<const std::array<Vec3, 4>*, 4>& x,
+                            const std::array<Eigen::Quaterniond*, 4>& q,
+                            const std::array<CorotationalState*, 4>& out, bool vectorised = true);
+[[nodiscard]] bool evaluate_corotational4_vectorised();  // the processor has AVX2
+
 // Its general case: `held`, `force`, `energy` and `twist` from the principal axes of the strain
 // eps in the frame of the rotation r. evaluate_corotational() forms them without the axes where
 // nothing is clamped (docs/tissue.md); tests compare the two.

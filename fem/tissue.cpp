@@ -275,15 +275,37 @@ std::size_t TissueModel::evaluate_elements(double& energy) {
   const bool corot = settings_.kind == TissueKind::Corotational;
   for_chunks(team(), nt, [&](std::size_t c, std::size_t begin, std::size_t end) {
     double e = 0, held = 0;
-    std::array<Vec3, 4> x;
-    for (std::size_t t = begin; t < end; ++t) {
-      if (!tet_on_[t]) continue;
-      for (size_t a = 0; a < 4; ++a) x[a] = pos[tet_vertices_[t][a]];
-      if (corot) {
-        evaluate_corotational(rest_[t], x, rotation_[t], corot_[t]);
+    if (corot) {
+      // Four live elements at a time (evaluate_corotational4), the rest one by one; the same bits.
+      std::array<std::array<Vec3, 4>, 4> x;
+      std::array<std::uint32_t, 4> group{};
+      std::size_t n = 0;
+      const auto add = [&](std::uint32_t t) {
         e += corot_[t].energy;
         held += corot_[t].held ? 1 : 0;
-      } else {
+      };
+      for (std::size_t t = begin; t < end; ++t) {
+        if (!tet_on_[t]) continue;
+        for (size_t a = 0; a < 4; ++a) x[n][a] = pos[tet_vertices_[t][a]];
+        group[n++] = static_cast<std::uint32_t>(t);
+        if (n < 4) continue;
+        evaluate_corotational4(
+            {&rest_[group[0]], &rest_[group[1]], &rest_[group[2]], &rest_[group[3]]},
+            {&x[0], &x[1], &x[2], &x[3]},
+            {&rotation_[group[0]], &rotation_[group[1]], &rotation_[group[2]], &rotation_[group[3]]},
+            {&corot_[group[0]], &corot_[group[1]], &corot_[group[2]], &corot_[group[3]]});
+        for (const std::uint32_t g : group) add(g);
+        n = 0;
+      }
+      for (std::size_t k = 0; k < n; ++k) {
+        evaluate_corotational(rest_[group[k]], x[k], rotation_[group[k]], corot_[group[k]]);
+        add(group[k]);
+      }
+    } else {
+      std::array<Vec3, 4> x;
+      for (std::size_t t = begin; t < end; ++t) {
+        if (!tet_on_[t]) continue;
+        for (size_t a = 0; a < 4; ++a) x[a] = pos[tet_vertices_[t][a]];
         evaluate_mass_spring(rest_[t], x, spring_[t]);
         e += spring_[t].energy;
         held += spring_[t].held ? 1 : 0;

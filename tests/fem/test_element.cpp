@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -483,4 +484,55 @@ TEST_CASE("slivers have their stiffness bounded by the quality floor") {
   const Eval e = evaluate(TissueKind::Corotational, r, flat_tet);
   CHECK(e.force.allFinite());
   CHECK(e.force.norm() == 0);
+}
+
+TEST_CASE("four elements evaluated at once give the bits each gives alone") {
+  // Mild and large deformations, inversions, elements beyond the strain limit, inert ones and warm
+  // starts far from unit length: every branch of the evaluation, with lanes ending their rotation
+  // iterations at different steps.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Material m;
+  m.prestress = 1.1;
+  const bool vectorised = evaluate_corotational4_vectorised();
+  MESSAGE("AVX2 lanes tested: " << (vectorised ? 1 : 0));
+  int held = 0, inert = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    std::array<TetRest, 4> rest;
+    std::array<X4, 4> x;
+    std::array<Eigen::Quaterniond, 4> q_one, q_four;
+    for (std::size_t l = 0; l < 4; ++l) {
+      const X4 r = random_tet(rng);
+      rest[l] = make_tet_rest(r, m, 0.05);
+      if (trial % 13 == 0 && l == 1) rest[l] = make_tet_rest({r[0], r[0], r[1], r[2]}, m, 0.05);  // inert
+      const double scale = (trial % 4 == 0) ? 1.5 : (trial % 4 == 1 ? 0.3 : 0.03);
+      Mat3 a = Mat3::Identity();
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) a(i, j) += scale * u(rng);
+      x[l] = deform(r, random_rotation(rng) * a, Vec3(u(rng), u(rng), u(rng)) * 0.01);
+      q_one[l] = (trial % 5 == 0) ? Eigen::Quaterniond(3 * u(rng), u(rng), u(rng), u(rng))
+                                  : Eigen::Quaterniond(random_rotation(rng));
+      q_four[l] = q_one[l];
+    }
+    std::array<CorotationalState, 4> one, four;
+    for (std::size_t l = 0; l < 4; ++l) evaluate_corotational(rest[l], x[l], q_one[l], one[l]);
+    evaluate_corotational4({&rest[0], &rest[1], &rest[2], &rest[3]}, {&x[0], &x[1], &x[2], &x[3]},
+                           {&q_four[0], &q_four[1], &q_four[2], &q_four[3]},
+                           {&four[0], &four[1], &four[2], &four[3]});
+    for (std::size_t l = 0; l < 4; ++l) {
+      INFO("trial " << trial << " lane " << l);
+      held += one[l].held ? 1 : 0;
+      inert += rest[l].volume == 0 ? 1 : 0;
+      REQUIRE(std::memcmp(q_one[l].coeffs().data(), q_four[l].coeffs().data(), 4 * sizeof(double)) == 0);
+      REQUIRE(std::memcmp(one[l].c.data(), four[l].c.data(), sizeof(one[l].c)) == 0);
+      REQUIRE(std::memcmp(one[l].force.data(), four[l].force.data(), sizeof(Mat34)) == 0);
+      REQUIRE(std::memcmp(one[l].twist.data(), four[l].twist.data(), sizeof(Mat3)) == 0);
+      REQUIRE(std::memcmp(&one[l].energy, &four[l].energy, sizeof(double)) == 0);
+      REQUIRE(one[l].held == four[l].held);
+      REQUIRE(one[l].lambda_volume == four[l].lambda_volume);
+      REQUIRE(one[l].mu_volume == four[l].mu_volume);
+    }
+  }
+  CHECK(held > 100);
+  CHECK(inert > 100);
 }
