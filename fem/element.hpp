@@ -31,6 +31,8 @@
 // R is found by the iterative rotation extraction of Müller, Bender, Chentanez, Macklin, "A Robust
 // Method to Extract the Rotational Part of Deformations", MIG 2016, warm-started from the last R,
 // with the full Newton step where it is safe (element.cpp): quadratic instead of linear convergence.
+// The evaluation is written once for one element and for four in SIMD lanes, with the same bits
+// (fem/corotational_lanes.hpp).
 //
 // Mass-spring variant: a spring on each of the six edges of every tetrahedron (an edge shared by n
 // tetrahedra carries n springs, so the stiffness follows the volume around it) plus a volume term:
