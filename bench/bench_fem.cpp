@@ -9,6 +9,7 @@
 //   ./build/release/bench/bench_fem --benchmark_filter=Progressive
 //   ./build/release/bench/bench_fem --benchmark_filter=CoarseFactorisation
 //   ./build/release/bench/bench_fem --benchmark_filter=CorotationalRow   # the assembly's kernel
+//   ./build/release/bench/bench_fem --benchmark_filter=CorotationalElements   # four elements at once
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -451,6 +452,42 @@ void BM_CorotationalRow(benchmark::State& state) {
   }
 }
 
+// The co-rotational element's evaluation (fem/element.hpp) on a pool of deformed elements, four at
+// a time: 0 = one after the other, 1 = in the lanes of AVX2 (skipped where the processor lacks it).
+// Per element.
+void BM_CorotationalElements(benchmark::State& state) {
+  const bool vectorised = state.range(0) == 1;
+  if (vectorised && !evaluate_corotational4_vectorised()) {
+    state.SkipWithError("no AVX2 on this processor");
+    return;
+  }
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  Material m;
+  m.prestress = 1.1;
+  constexpr std::size_t kPool = 256;
+  std::vector<TetRest> rest(kPool);
+  std::vector<std::array<Vec3, 4>> x(kPool);
+  std::vector<Eigen::Quaterniond> q(kPool, Eigen::Quaterniond::Identity());
+  std::vector<CorotationalState> out(kPool);
+  for (std::size_t e = 0; e < kPool; ++e) {
+    std::array<Vec3, 4> r{Vec3(0, 0, 0), Vec3(1e-3, 0, 0), Vec3(0, 1e-3, 0), Vec3(0, 0, 1e-3)};
+    rest[e] = make_tet_rest(r, m, 0.05);
+    for (Vec3& p : r) p += 1e-3 * Vec3(u(rng), u(rng), u(rng));
+    x[e] = r;
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    const std::size_t e = i % kPool;
+    evaluate_corotational4({&rest[e], &rest[e + 1], &rest[e + 2], &rest[e + 3]},
+                           {&x[e], &x[e + 1], &x[e + 2], &x[e + 3]}, {&q[e], &q[e + 1], &q[e + 2], &q[e + 3]},
+                           {&out[e], &out[e + 1], &out[e + 2], &out[e + 3]}, vectorised);
+    benchmark::DoNotOptimize(out[e]);
+    i += 4;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(i));
+}
+
 // cells per side: 12 -> 5184, 24 -> 20736, 37 -> 49284 tetrahedra; second argument 0 = FEM,
 // 1 = mass-spring; third (after a cut) the preconditioner, as above.
 BENCHMARK(BM_TissueStep)
@@ -476,6 +513,7 @@ BENCHMARK(BM_TissueProgressiveIncision)
     ->UseManualTime()
     ->Iterations(1);
 BENCHMARK(BM_CorotationalRow)->DenseRange(0, 1);
+BENCHMARK(BM_CorotationalElements)->DenseRange(0, 1);
 BENCHMARK(BM_CoarseFactorisation)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 }  // namespace
