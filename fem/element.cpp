@@ -1,10 +1,5 @@
 #include "fem/element.hpp"
 
-// Lanes pass by value only between fem/corotational_lanes.hpp's forced-inline functions, never
-// through a call: GCC's note that the ABI of a vector argument depends on AVX does not apply.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 #include "fem/corotational_lanes.hpp"
 
 #include <algorithm>
@@ -74,7 +69,7 @@ void extract_rotation(const Mat3& f, Eigen::Quaterniond& q, int max_iterations) 
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) m.a[i][j] = f(i, j);
   double wxyz[4] = {q.w(), q.x(), q.y(), q.z()};
-  lanes::extract_rotation(m, wxyz, max_iterations);
+  lanes::scalar::extract_rotation(m, wxyz, max_iterations);
   q = Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
 }
 
@@ -128,13 +123,12 @@ void evaluate_corotational(const TetRest& rest, const std::array<Vec3, 4>& x, Ei
   e.q[2] = q.y();
   e.q[3] = q.z();
   lanes::Evaluation<double> ev;
-  const bool unclamped = lanes::evaluate(e, ev);
+  const bool unclamped = lanes::scalar::evaluate(e, ev);
   q = Eigen::Quaterniond(e.q[0], e.q[1], e.q[2], e.q[3]);
   finish(rest, ev, unclamped, out);
 }
 
-#if defined(__x86_64__) || defined(__i386__)
-#define SCALPEL_ELEMENT_AVX2 1
+#ifdef SCALPEL_LANES_HAVE_AVX2
 namespace {
 
 [[gnu::target("avx2")]] void evaluate_corotational4_avx2(const std::array<const TetRest*, 4>& rest,
@@ -159,7 +153,7 @@ namespace {
     e.q[3][l] = ql.z();
   }
   lanes::Evaluation<lanes::Lanes> ev;
-  const lanes::Mask unclamped = lanes::evaluate(e, ev);
+  const lanes::Mask unclamped = lanes::avx2::evaluate(e, ev);
   for (int l = 0; l < 4; ++l) {
     lanes::Evaluation<double> one;
     for (int i = 0; i < 3; ++i)
@@ -183,7 +177,7 @@ namespace {
 #endif
 
 bool evaluate_corotational4_vectorised() {
-#ifdef SCALPEL_ELEMENT_AVX2
+#ifdef SCALPEL_LANES_HAVE_AVX2
   static const bool avx2 = __builtin_cpu_supports("avx2");
   return avx2;
 #else
@@ -195,7 +189,7 @@ void evaluate_corotational4(const std::array<const TetRest*, 4>& rest,
                             const std::array<const std::array<Vec3, 4>*, 4>& x,
                             const std::array<Eigen::Quaterniond*, 4>& q,
                             const std::array<CorotationalState*, 4>& out, bool vectorised) {
-#ifdef SCALPEL_ELEMENT_AVX2
+#ifdef SCALPEL_LANES_HAVE_AVX2
   if (vectorised && evaluate_corotational4_vectorised()) {
     evaluate_corotational4_avx2(rest, x, q, out);
     return;
