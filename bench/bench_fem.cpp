@@ -419,6 +419,26 @@ void BM_CoarseFactorisation(benchmark::State& state) {
   state.counters["solve_ms"] = 1e3 * solve / count;
 }
 
+// Prestressed elements of 1 mm, each corner moved at random by up to `spread` of that.
+struct ElementPool {
+  std::vector<TetRest> rest;
+  std::vector<std::array<Vec3, 4>> x;
+};
+ElementPool element_pool(std::size_t count, double spread, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-spread, spread);
+  Material m;
+  m.prestress = 1.1;
+  ElementPool pool;
+  for (std::size_t e = 0; e < count; ++e) {
+    std::array<Vec3, 4> x{Vec3(0, 0, 0), Vec3(1e-3, 0, 0), Vec3(0, 1e-3, 0), Vec3(0, 0, 1e-3)};
+    pool.rest.push_back(make_tet_rest(x, m, 0.05));
+    for (Vec3& p : x) p += 1e-3 * Vec3(u(rng), u(rng), u(rng));
+    pool.x.push_back(x);
+  }
+  return pool;
+}
+
 // The assembly's inner kernel (fem/row_kernel.hpp) on element states from a cache-resident pool:
 // arithmetic only, no waiting for memory. Per element row (4 blocks); 0 = portable (the scalar block
 // functions), 1 = AVX2 (skipped where the processor lacks it).
@@ -428,17 +448,11 @@ void BM_CorotationalRow(benchmark::State& state) {
     state.SkipWithError("no AVX2 on this processor");
     return;
   }
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(-0.2, 0.2);
-  Material m;
-  m.prestress = 1.1;
-  std::vector<CorotationalState> states(64);
-  for (CorotationalState& s : states) {
-    std::array<Vec3, 4> x{Vec3(0, 0, 0), Vec3(1e-3, 0, 0), Vec3(0, 1e-3, 0), Vec3(0, 0, 1e-3)};
-    const TetRest rest = make_tet_rest(x, m, 0.05);
-    for (Vec3& p : x) p += 1e-3 * Vec3(u(rng), u(rng), u(rng));
+  const ElementPool pool = element_pool(64, 0.2, 3);
+  std::vector<CorotationalState> states(pool.rest.size());
+  for (std::size_t e = 0; e < states.size(); ++e) {
     Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-    evaluate_corotational(rest, x, q, s);
+    evaluate_corotational(pool.rest[e], pool.x[e], q, states[e]);
   }
   std::array<Mat3, 4> k;
   for (Mat3& b : k) b.setZero();
@@ -461,21 +475,12 @@ void BM_CorotationalElements(benchmark::State& state) {
     state.SkipWithError("no AVX2 on this processor");
     return;
   }
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(-0.05, 0.05);
-  Material m;
-  m.prestress = 1.1;
   constexpr std::size_t kPool = 256;
-  std::vector<TetRest> rest(kPool);
-  std::vector<std::array<Vec3, 4>> x(kPool);
+  const ElementPool pool = element_pool(kPool, 0.05, 5);
   std::vector<Eigen::Quaterniond> q(kPool, Eigen::Quaterniond::Identity());
   std::vector<CorotationalState> out(kPool);
-  for (std::size_t e = 0; e < kPool; ++e) {
-    std::array<Vec3, 4> r{Vec3(0, 0, 0), Vec3(1e-3, 0, 0), Vec3(0, 1e-3, 0), Vec3(0, 0, 1e-3)};
-    rest[e] = make_tet_rest(r, m, 0.05);
-    for (Vec3& p : r) p += 1e-3 * Vec3(u(rng), u(rng), u(rng));
-    x[e] = r;
-  }
+  const auto& rest = pool.rest;
+  const auto& x = pool.x;
   std::size_t i = 0;
   for (auto _ : state) {
     const std::size_t e = i % kPool;
