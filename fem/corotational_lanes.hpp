@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "fem/element.hpp"
 
@@ -18,6 +19,7 @@ namespace scalpel::lanes {
 
 using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
 using Mask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));  // all ones: true
+inline constexpr double kLargest = std::numeric_limits<double>::max();
 
 template <class T>
 struct M3 {
@@ -83,7 +85,7 @@ SCALPEL_LANES_SCALAR void sine_cosine(double a, bool, double& s, double& c) {
 }  // namespace scalpel::lanes::scalar
 #undef SCALPEL_LANES_SCALAR
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(__x86_64__)  // not i386, whose scalar code may round in x87 registers
 #define SCALPEL_LANES_HAVE_AVX2 1
 #define SCALPEL_LANES_AVX2 [[gnu::always_inline, gnu::target("avx2")]] inline
 namespace scalpel::lanes::avx2 {

@@ -1,6 +1,6 @@
 #include "fem/row_kernel.hpp"
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(__x86_64__)
 #include <immintrin.h>
 #endif
 
@@ -20,7 +20,7 @@ void corotational_row_portable(const CorotationalState& s, int a, double h, cons
   }
 }
 
-#if defined(__x86_64__) || defined(__i386__)
+#if defined(__x86_64__)  // not i386, whose scalar code may round in x87 registers
 #define SCALPEL_ROW_AVX2 1
 
 // Lane b of e[m] <- entry m of block b (column-major, m = i + 3 j), for m = 4 q .. 4 q + 3: a 4 x 4

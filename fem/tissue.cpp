@@ -37,7 +37,8 @@ TissueModel::TissueModel(TetMesh& mesh, std::vector<Material> materials, TissueS
       dirty_list_.push_back(i);
     }
   // Every row's columns, entries and mass now, at load, not in the first step's frame (12 ms at 20
-  // thousand tetrahedra). Rows whose nodes are fixed or held later are rebuilt at the next step.
+  // thousand tetrahedra). Rows whose nodes are fixed or held later are rebuilt at the next step;
+  // support_quality changed through settings() reaches only rows rebuilt after the change.
   refresh();
 }
 

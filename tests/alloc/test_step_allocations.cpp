@@ -74,6 +74,7 @@ TEST_CASE("tissue: taking in the first cut moves none of the model's arrays") {
   tissue.on_tets_added(c.added_tets);
   const std::size_t allocations = heap_allocations() - before;
   INFO(c.added_nodes.size() << " nodes and " << c.added_tets.size() << " tetrahedra added");
-  // What is left is the first growth of the short lists of the hand-over (born and dirty nodes).
-  CHECK(allocations < 10);
+  // What is left is the first growth of the short lists of the hand-over (born and dirty nodes):
+  // 7 here. One array of the model more that moves makes it fail.
+  CHECK(allocations <= 8);
 }
