@@ -82,7 +82,7 @@ Mat3 to_mat3(const lanes::M3<double>& m) {
   return out;
 }
 
-// The element's state from an evaluation, the general case where something is clamped.
+// The element's state from an evaluation; where something is clamped, from the general case.
 void finish(const TetRest& rest, const lanes::Evaluation<double>& ev, bool unclamped,
             CorotationalState& out) {
   for (int i = 0; i < 3; ++i)
